@@ -1,0 +1,152 @@
+"""Every Zenoh key expression of the SofIA bus, in one place.
+
+All keys are namespaced by a robot id (default ``panda``): ``sofia/{robot}/...``.
+Services build their keys with :class:`Keys` so that a change of layout is made here only.
+
+Payloads (see README, "Key expressions"):
+
+=================================  ==============================================  =========
+key                                payload                                         kind
+=================================  ==============================================  =========
+sofia/{robot}/points               CDR sensor_msgs/msg/PointCloud2, base frame     put
+sofia/{robot}/camera/points        CDR sensor_msgs/msg/PointCloud2, camera frame   put
+sofia/{robot}/flange/pose          CDR geometry_msgs/msg/TransformStamped or       put
+                                   JSON FlangePose (base -> flange)
+sofia/{robot}/detector/detections  JSON Detection                                  put
+sofia/{robot}/detector/detect      query: CDR PointCloud2 or empty -> Detection    queryable
+sofia/{robot}/detector/status      query -> JSON ServiceStatus                     queryable
+sofia/{robot}/calibrator/blob      CDR geometry_msgs/msg/PointStamped or JSON      put
+                                   BlobObservation (camera frame)
+sofia/{robot}/calibrator/result    JSON CalibrationResult                          put + queryable
+sofia/{robot}/calibrator/<op>      queryables: add, remove, reset, solve, save     queryable
+sofia/{robot}/gripper/state        JSON GripperState                               put
+sofia/{robot}/gripper/command      query: JSON GripperCommand -> GripperResult     queryable
+sofia/{robot}/pick/target          JSON PickTarget                                 put
+sofia/{robot}/<service>/status     JSON ServiceStatus                              put + queryable
+sofia/{robot}/replay/status        JSON ServiceStatus                              put
+=================================  ==============================================  =========
+"""
+
+from __future__ import annotations
+
+import os
+import re
+from dataclasses import dataclass
+
+DEFAULT_ROBOT = "panda"
+ROBOT_ENV = "SOFIA_ROBOT"
+ROOT = "sofia"
+
+_ROBOT_RE = re.compile(r"^[A-Za-z0-9_\-]+$")
+
+# MCAP topic names (ROS 2 style) <-> bus keys. The lab's base-frame cloud topic is /pc_glob.
+TOPIC_POINTS = "/pc_glob"
+TOPIC_CAMERA_POINTS = "/camera/depth/color/points"
+TOPIC_FLANGE_POSE = "/sofia/flange_pose"
+TOPIC_BLOB = "/sofia/blob"
+
+# Zenoh encodings used on the bus.
+ENCODING_CDR_POINTCLOUD2 = "application/cdr;sensor_msgs/msg/PointCloud2"
+ENCODING_CDR_TRANSFORM = "application/cdr;geometry_msgs/msg/TransformStamped"
+ENCODING_CDR_POINT = "application/cdr;geometry_msgs/msg/PointStamped"
+ENCODING_JSON = "application/json"
+
+
+def default_robot() -> str:
+    """The robot id from ``$SOFIA_ROBOT``, else ``panda``."""
+    return os.environ.get(ROBOT_ENV, DEFAULT_ROBOT)
+
+
+@dataclass(frozen=True)
+class Keys:
+    """Key expressions for one robot id.
+
+    >>> Keys("panda").points
+    'sofia/panda/points'
+    """
+
+    robot: str = DEFAULT_ROBOT
+
+    def __post_init__(self) -> None:
+        if not _ROBOT_RE.match(self.robot):
+            raise ValueError(
+                f"robot id {self.robot!r} is not a valid key chunk: use letters, digits, '_' and '-'"
+            )
+
+    @property
+    def prefix(self) -> str:
+        return f"{ROOT}/{self.robot}"
+
+    # --- data plane -------------------------------------------------------
+    @property
+    def points(self) -> str:
+        """Point clouds in the robot base frame (the lab's ``/pc_glob``)."""
+        return f"{self.prefix}/points"
+
+    @property
+    def camera_points(self) -> str:
+        """Point clouds in the camera optical frame."""
+        return f"{self.prefix}/camera/points"
+
+    @property
+    def flange_pose(self) -> str:
+        """Stamped base -> flange poses."""
+        return f"{self.prefix}/flange/pose"
+
+    # --- detector ---------------------------------------------------------
+    @property
+    def detections(self) -> str:
+        return f"{self.prefix}/detector/detections"
+
+    @property
+    def detect(self) -> str:
+        return f"{self.prefix}/detector/detect"
+
+    # --- calibrator -------------------------------------------------------
+    @property
+    def calibrator(self) -> str:
+        return f"{self.prefix}/calibrator"
+
+    @property
+    def blob(self) -> str:
+        """Blob observations in the camera optical frame."""
+        return f"{self.calibrator}/blob"
+
+    @property
+    def calibration_result(self) -> str:
+        return f"{self.calibrator}/result"
+
+    def calibrator_op(self, op: str) -> str:
+        """Calibrator queryables: ``add``, ``remove``, ``reset``, ``solve``, ``save``, ``samples``."""
+        return f"{self.calibrator}/{op}"
+
+    # --- gripper ----------------------------------------------------------
+    @property
+    def gripper_state(self) -> str:
+        return f"{self.prefix}/gripper/state"
+
+    @property
+    def gripper_command(self) -> str:
+        return f"{self.prefix}/gripper/command"
+
+    # --- system -----------------------------------------------------------
+    @property
+    def pick_target(self) -> str:
+        return f"{self.prefix}/pick/target"
+
+    def status(self, service: str) -> str:
+        """Status of a service (``detector``, ``calibrator``, ``gripper``, ``replay``)."""
+        return f"{self.prefix}/{service}/status"
+
+    @property
+    def all(self) -> str:
+        return f"{self.prefix}/**"
+
+    def topic_map(self) -> dict[str, str]:
+        """Default MCAP topic -> key mapping used by the replayer."""
+        return {
+            TOPIC_POINTS: self.points,
+            TOPIC_CAMERA_POINTS: self.camera_points,
+            TOPIC_FLANGE_POSE: self.flange_pose,
+            TOPIC_BLOB: self.blob,
+        }

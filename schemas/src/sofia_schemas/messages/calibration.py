@@ -1,0 +1,44 @@
+"""Calibration samples and results."""
+
+from __future__ import annotations
+
+from pydantic import Field
+
+from .base import Message, Quat, Vec3
+
+
+class CalibrationSample(Message):
+    """One blob observation paired with the flange pose at its stamp."""
+
+    stamp_ns: int
+    p_cam: Vec3  # blob, camera optical frame, metres
+    translation: Vec3  # T_base_flange translation, metres
+    rotation_xyzw: Quat  # T_base_flange rotation, x y z w
+    confidence: float = Field(1.0, ge=0.0, le=1.0)
+    sample_id: int | None = None
+
+
+class CalibrationResult(Message):
+    """``T_flange_cam``: maps camera optical frame points into the flange frame (metres)."""
+
+    stamp_ns: int
+    parent_frame: str = "panda_link8"
+    child_frame: str = "panda_camera"
+    matrix: list[list[float]]  # 4x4 T_flange_cam
+    translation: Vec3
+    quaternion_xyzw: Quat
+    rpy: Vec3  # roll, pitch, yaw, radians
+    target_base: Vec3  # blob position in the base frame
+    spread_mm: Vec3  # per-axis max - min of mapped blob over inliers
+    passes: bool  # spread < 10 mm on every axis (the lab's criterion)
+    n_samples: int
+    inliers: list[int]
+    outliers: list[int]
+    residuals_mm: list[float]  # per-sample distance of the mapped blob to target_base
+    std_translation_mm: Vec3
+    std_rotation_deg: Vec3
+    dissipation_before: float | None = None
+    dissipation_after: float
+    warnings: list[str] = []
+    ros1_static_transform: str = ""
+    ros2_static_transform: str = ""

@@ -1,0 +1,71 @@
+"""Stamped poses and point-cloud metadata."""
+
+from __future__ import annotations
+
+import numpy as np
+from pydantic import Field, field_validator
+
+from .base import Message, Quat, Vec3
+
+
+class FlangePose(Message):
+    """Stamped pose of the flange in the base frame: ``T_base_flange`` (frame_id -> child_frame_id)."""
+
+    stamp_ns: int
+    frame_id: str = "panda_link0"
+    child_frame_id: str = "panda_link8"
+    translation: Vec3
+    rotation_xyzw: Quat
+
+    @field_validator("rotation_xyzw")
+    @classmethod
+    def _unit(cls, q: tuple[float, float, float, float]) -> tuple[float, float, float, float]:
+        n = float(np.linalg.norm(q))
+        if abs(n - 1.0) > 1e-3:
+            raise ValueError(f"quaternion (x y z w) {q} has norm {n:.6f}, expected 1")
+        return q
+
+    def matrix(self) -> np.ndarray:
+        """(4, 4) ``T_base_flange``."""
+        from ..transforms import make_transform
+
+        return make_transform(np.array(self.translation), np.array(self.rotation_xyzw))
+
+    @classmethod
+    def from_matrix(
+        cls, T_base_flange: np.ndarray, stamp_ns: int, frame_id: str = "panda_link0",
+        child_frame_id: str = "panda_link8",
+    ) -> FlangePose:  # fmt: skip
+        from ..transforms import as_transforms, matrix_to_quat_xyzw
+
+        T = as_transforms(T_base_flange, "T_base_flange")
+        q = matrix_to_quat_xyzw(T[:3, :3])
+        return cls(
+            stamp_ns=stamp_ns, frame_id=frame_id, child_frame_id=child_frame_id,
+            translation=tuple(float(v) for v in T[:3, 3]),  # type: ignore[arg-type]
+            rotation_xyzw=tuple(float(v) for v in q),  # type: ignore[arg-type]
+        )  # fmt: skip
+
+
+class PointCloudInfo(Message):
+    """Metadata of a PointCloud2 (what ``sofia echo`` prints for a cloud)."""
+
+    stamp_ns: int
+    frame_id: str
+    height: int
+    width: int
+    fields: list[str]
+    point_step: int
+    n_points: int
+    n_finite: int
+    is_dense: bool
+
+
+class BlobObservation(Message):
+    """Position of the calibration blob in the camera optical frame."""
+
+    stamp_ns: int
+    frame_id: str = "camera_color_optical_frame"
+    position: Vec3  # metres, camera optical frame
+    confidence: float = Field(1.0, ge=0.0, le=1.0)
+    n_pixels: int = 0

@@ -1,0 +1,122 @@
+"""Small ROS 2 messages on the bus and in MCAP (CDR via ``rosbags``, no ROS installation).
+
+Flange poses travel as ``geometry_msgs/msg/TransformStamped`` (parent = base, child = flange) and
+blob observations as ``geometry_msgs/msg/PointStamped``; both may also be sent as pydantic JSON.
+:func:`decode_flange_pose` and :func:`decode_blob` accept either and tell them apart by the first
+byte (CDR encapsulation header vs ``{``).
+"""
+
+from __future__ import annotations
+
+from functools import lru_cache
+from typing import Any
+
+import numpy as np
+
+from .errors import PayloadError
+from .messages import BlobObservation, FlangePose
+
+POINTCLOUD2 = "sensor_msgs/msg/PointCloud2"
+TRANSFORM_STAMPED = "geometry_msgs/msg/TransformStamped"
+POINT_STAMPED = "geometry_msgs/msg/PointStamped"
+
+
+@lru_cache(maxsize=1)
+def typestore() -> Any:
+    """The ROS 2 Humble type store of ``rosbags``."""
+    from rosbags.typesys import Stores, get_typestore
+
+    return get_typestore(Stores.ROS2_HUMBLE)
+
+
+def msgdef(typename: str) -> str:
+    """ROS 2 ``.msg`` definition text of ``typename`` with its dependencies (MCAP ``ros2msg`` schema)."""
+    text, _ = typestore().generate_msgdef(typename, ros_version=2)
+    return str(text)
+
+
+def _header(stamp_ns: int, frame_id: str) -> Any:
+    ts = typestore()
+    sec, nsec = divmod(int(stamp_ns), 1_000_000_000)
+    Time = ts.types["builtin_interfaces/msg/Time"]
+    Header = ts.types["std_msgs/msg/Header"]
+    return Header(stamp=Time(sec=sec, nanosec=nsec), frame_id=frame_id)
+
+
+def encode_flange_pose(pose: FlangePose) -> bytes:
+    """CDR ``geometry_msgs/msg/TransformStamped`` of a base -> flange pose."""
+    ts = typestore()
+    T = ts.types
+    msg = T[TRANSFORM_STAMPED](
+        header=_header(pose.stamp_ns, pose.frame_id),
+        child_frame_id=pose.child_frame_id,
+        transform=T["geometry_msgs/msg/Transform"](
+            translation=T["geometry_msgs/msg/Vector3"](*map(float, pose.translation)),
+            rotation=T["geometry_msgs/msg/Quaternion"](*map(float, pose.rotation_xyzw)),
+        ),
+    )
+    return bytes(ts.serialize_cdr(msg, TRANSFORM_STAMPED))
+
+
+def encode_blob(obs: BlobObservation) -> bytes:
+    """CDR ``geometry_msgs/msg/PointStamped`` of a camera-frame blob position."""
+    ts = typestore()
+    msg = ts.types[POINT_STAMPED](
+        header=_header(obs.stamp_ns, obs.frame_id),
+        point=ts.types["geometry_msgs/msg/Point"](*map(float, obs.position)),
+    )
+    return bytes(ts.serialize_cdr(msg, POINT_STAMPED))
+
+
+def _is_json(payload: bytes) -> bool:
+    return payload[:1] in (b"{", b" ", b"\n")
+
+
+def decode_flange_pose(payload: bytes | bytearray | memoryview) -> FlangePose:
+    """A :class:`FlangePose` from CDR TransformStamped or JSON bytes; PayloadError if neither."""
+    payload = bytes(payload)
+    if _is_json(payload):
+        try:
+            return FlangePose.model_validate_json(payload)
+        except ValueError as e:
+            raise PayloadError(f"flange pose JSON is invalid: {e}") from None
+    try:
+        msg = typestore().deserialize_cdr(payload, TRANSFORM_STAMPED)
+        tr, rot = msg.transform.translation, msg.transform.rotation
+        return FlangePose(
+            stamp_ns=msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec,
+            frame_id=msg.header.frame_id,
+            child_frame_id=msg.child_frame_id,
+            translation=(tr.x, tr.y, tr.z),
+            rotation_xyzw=(rot.x, rot.y, rot.z, rot.w),
+        )
+    except PayloadError:
+        raise
+    except Exception as e:  # rosbags raises assorted errors on corrupt CDR
+        raise PayloadError(
+            f"flange pose payload ({len(payload)} bytes) is neither JSON nor CDR {TRANSFORM_STAMPED}: {e}"
+        ) from None
+
+
+def decode_blob(payload: bytes | bytearray | memoryview) -> BlobObservation:
+    """A :class:`BlobObservation` from CDR PointStamped or JSON bytes; PayloadError if neither."""
+    payload = bytes(payload)
+    if _is_json(payload):
+        try:
+            return BlobObservation.model_validate_json(payload)
+        except ValueError as e:
+            raise PayloadError(f"blob observation JSON is invalid: {e}") from None
+    try:
+        msg = typestore().deserialize_cdr(payload, POINT_STAMPED)
+        p = np.array([msg.point.x, msg.point.y, msg.point.z])
+        return BlobObservation(
+            stamp_ns=msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec,
+            frame_id=msg.header.frame_id,
+            position=(float(p[0]), float(p[1]), float(p[2])),
+        )
+    except PayloadError:
+        raise
+    except Exception as e:  # rosbags raises assorted errors on corrupt CDR
+        raise PayloadError(
+            f"blob payload ({len(payload)} bytes) is neither JSON nor CDR {POINT_STAMPED}: {e}"
+        ) from None

@@ -1,0 +1,116 @@
+"""The small shape every SofIA service shares: logging, clean stop, latest-value hand-over, replies.
+
+Zenoh callbacks only hand data over (:class:`LatestSlot`); the work runs on the service's own
+thread. Query replies go through :func:`reply_json` and :func:`reply_error`.
+"""
+
+from __future__ import annotations
+
+import logging
+import signal
+import threading
+from collections.abc import Callable
+from pathlib import Path
+from types import FrameType
+from typing import Generic, TypeVar
+
+import zenoh
+from pydantic import BaseModel
+
+from .messages import ErrorReply
+
+T = TypeVar("T")
+log = logging.getLogger(__name__)
+
+
+def setup_logging(level: str = "INFO", log_file: str | Path | None = None) -> None:
+    """Configure the root logger: ``time level name: message`` to stderr (and a file)."""
+    handlers: list[logging.Handler] = [logging.StreamHandler()]
+    if log_file:
+        Path(log_file).parent.mkdir(parents=True, exist_ok=True)
+        handlers.append(logging.FileHandler(log_file))
+    logging.basicConfig(
+        level=getattr(logging, level.upper(), logging.INFO),
+        format="%(asctime)s %(levelname)s %(name)s: %(message)s",
+        handlers=handlers,
+        force=True,
+    )
+
+
+class StopFlag:
+    """A ``threading.Event`` set by SIGINT/SIGTERM (installed when created on the main thread)."""
+
+    def __init__(self) -> None:
+        self.event = threading.Event()
+        if threading.current_thread() is threading.main_thread():
+            for sig in (signal.SIGINT, signal.SIGTERM):
+                signal.signal(sig, self._handle)
+
+    def _handle(self, signum: int, _frame: FrameType | None) -> None:
+        log.info("received %s, stopping", signal.Signals(signum).name)
+        self.event.set()
+
+    def set(self) -> None:
+        self.event.set()
+
+    def is_set(self) -> bool:
+        return self.event.is_set()
+
+    def wait(self, timeout: float | None = None) -> bool:
+        return self.event.wait(timeout)
+
+
+class LatestSlot(Generic[T]):
+    """Holds only the newest item. ``put`` replaces an item not yet taken and counts it dropped."""
+
+    def __init__(self) -> None:
+        self._cond = threading.Condition()
+        self._item: T | None = None
+        self._has = False
+        self.dropped = 0
+        self.received = 0
+
+    def put(self, item: T) -> None:
+        with self._cond:
+            if self._has:
+                self.dropped += 1
+            self._item, self._has = item, True
+            self.received += 1
+            self._cond.notify()
+
+    def take(self, timeout: float | None = None) -> T | None:
+        """The newest item, waiting up to ``timeout`` s; None when nothing arrived."""
+        with self._cond:
+            if not self._has and not self._cond.wait_for(lambda: self._has, timeout):
+                return None
+            item, self._item, self._has = self._item, None, False
+            return item
+
+
+def reply_json(query: zenoh.Query, message: BaseModel, key: str | None = None) -> None:
+    """Reply to ``query`` with a pydantic message as JSON."""
+    query.reply(key or str(query.key_expr), message.model_dump_json(), encoding="application/json")
+
+
+def reply_error(query: zenoh.Query, error: BaseException | str, key: str | None = None) -> None:
+    """Reply with an :class:`ErrorReply` saying what was wrong (``reply_err``)."""
+    if isinstance(error, BaseException):
+        reply = ErrorReply(error=type(error).__name__, message=str(error), key=key or str(query.key_expr))
+    else:
+        reply = ErrorReply(error="Error", message=error, key=key or str(query.key_expr))
+    query.reply_err(reply.model_dump_json(), encoding="application/json")
+
+
+def run_worker(name: str, target: Callable[[], None]) -> threading.Thread:
+    """Start ``target`` on a daemon thread named ``name``; exceptions are logged, not swallowed."""
+
+    def wrapped() -> None:
+        try:
+            target()
+        except Exception:
+            log.exception("worker %s crashed", name)
+            raise
+
+    t = threading.Thread(target=wrapped, name=name, daemon=True)
+    t.start()
+    return t

@@ -1,0 +1,110 @@
+"""One helper builds the Zenoh session config of every SofIA process.
+
+Precedence, lowest first:
+
+1. defaults: peer mode, listening on loopback only (``tcp/127.0.0.1:0``), multicast scouting on
+   the loopback interface, so processes on one machine find each other with no router;
+2. a json5 Zenoh config file: ``--zenoh-config FILE`` or ``$SOFIA_ZENOH_CONFIG``;
+3. environment: ``$SOFIA_ZENOH_MODE`` (peer|client|router), ``$SOFIA_ZENOH_CONNECT`` and
+   ``$SOFIA_ZENOH_LISTEN`` (comma-separated endpoints, e.g. ``tcp/zenoh:7447``);
+4. command-line flags: ``--zenoh-mode``, ``--connect``, ``--listen``.
+
+When connect endpoints are given (a router, as in compose), multicast scouting is turned off:
+discovery goes through the router, and multicast does not cross Docker networks anyway.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import zenoh
+
+ENV_CONFIG = "SOFIA_ZENOH_CONFIG"
+ENV_MODE = "SOFIA_ZENOH_MODE"
+ENV_CONNECT = "SOFIA_ZENOH_CONNECT"
+ENV_LISTEN = "SOFIA_ZENOH_LISTEN"
+DEFAULT_LISTEN = ["tcp/127.0.0.1:0"]
+DEFAULT_ROUTER_LISTEN = ["tcp/127.0.0.1:7447"]
+MODES = ("peer", "client", "router")
+
+
+def _split(value: str | None) -> list[str]:
+    return [v.strip() for v in value.split(",") if v.strip()] if value else []
+
+
+@dataclass
+class ZenohOptions:
+    """Where a session connects and listens. ``None`` means "not set at this level"."""
+
+    mode: str | None = None
+    connect: list[str] = field(default_factory=list)
+    listen: list[str] = field(default_factory=list)
+    config_file: str | None = None
+
+    @classmethod
+    def from_args(cls, args: argparse.Namespace) -> ZenohOptions:
+        return cls(
+            mode=getattr(args, "zenoh_mode", None),
+            connect=list(getattr(args, "connect", None) or []),
+            listen=list(getattr(args, "listen", None) or []),
+            config_file=getattr(args, "zenoh_config", None),
+        )
+
+
+def add_zenoh_args(parser: argparse.ArgumentParser) -> None:
+    """Add ``--zenoh-mode``, ``--connect``, ``--listen``, ``--zenoh-config`` to a parser."""
+    g = parser.add_argument_group("zenoh")
+    g.add_argument("--zenoh-mode", choices=MODES, default=None, help="session mode (default peer)")
+    g.add_argument("--connect", action="append", metavar="ENDPOINT", help="e.g. tcp/127.0.0.1:7447")
+    g.add_argument("--listen", action="append", metavar="ENDPOINT", help="e.g. tcp/127.0.0.1:0")
+    g.add_argument("--zenoh-config", metavar="FILE", help="json5 Zenoh config file")
+
+
+def resolve(options: ZenohOptions | None = None, env: dict[str, str] | None = None) -> dict[str, object]:
+    """The effective settings as a dict: mode, connect, listen, config_file, multicast."""
+    options = options or ZenohOptions()
+    env = dict(os.environ if env is None else env)
+    mode = options.mode or env.get(ENV_MODE) or "peer"
+    if mode not in MODES:
+        raise ValueError(f"Zenoh mode {mode!r} is not one of {MODES}")
+    connect = options.connect or _split(env.get(ENV_CONNECT))
+    listen = options.listen or _split(env.get(ENV_LISTEN))
+    if not listen and mode != "client":
+        listen = DEFAULT_ROUTER_LISTEN if mode == "router" else DEFAULT_LISTEN
+    config_file = options.config_file or env.get(ENV_CONFIG)
+    if config_file and not Path(config_file).is_file():
+        raise FileNotFoundError(f"Zenoh config file {config_file!r} does not exist")
+    return {
+        "mode": mode,
+        "connect": connect,
+        "listen": listen,
+        "config_file": config_file,
+        "multicast": not connect,
+    }
+
+
+def zenoh_config(options: ZenohOptions | None = None, env: dict[str, str] | None = None) -> zenoh.Config:
+    """Build the :class:`zenoh.Config` of a SofIA process (see the module docstring)."""
+    s = resolve(options, env)
+    conf = zenoh.Config.from_file(str(s["config_file"])) if s["config_file"] else zenoh.Config()
+    conf.insert_json5("mode", json.dumps(s["mode"]))
+    if s["connect"]:
+        conf.insert_json5("connect/endpoints", json.dumps(s["connect"]))
+    if s["listen"]:
+        conf.insert_json5("listen/endpoints", json.dumps(s["listen"]))
+    if not s["config_file"]:
+        if s["multicast"]:
+            conf.insert_json5("scouting/multicast/enabled", "true")
+            conf.insert_json5("scouting/multicast/interface", json.dumps("lo"))
+        else:
+            conf.insert_json5("scouting/multicast/enabled", "false")
+    return conf
+
+
+def open_session(options: ZenohOptions | None = None) -> zenoh.Session:
+    """Open a Zenoh session with :func:`zenoh_config`."""
+    return zenoh.open(zenoh_config(options))

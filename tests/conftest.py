@@ -1,0 +1,94 @@
+"""Shared fixtures: a unique robot id per test (isolates Zenoh traffic), and real service
+processes started with the ``sofia`` command, stopped with SIGTERM and their logs kept."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+import uuid
+from collections.abc import Callable, Iterator
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parents[1]
+SOFIA = str(Path(sys.executable).with_name("sofia"))
+
+
+@pytest.fixture
+def robot_id() -> str:
+    """A robot id no other test uses, so each test has its own key space."""
+    return "t" + uuid.uuid4().hex[:10]
+
+
+class Proc:
+    """A ``sofia`` subprocess whose output goes to a log file."""
+
+    def __init__(self, args: list[str], log_path: Path, env: dict[str, str]) -> None:
+        self.args = args
+        self.log_path = log_path
+        self._log = open(log_path, "wb")  # noqa: SIM115 - closed in stop()
+        self.popen = subprocess.Popen(
+            [SOFIA, *args], stdout=self._log, stderr=subprocess.STDOUT, env=env, cwd=REPO,
+            start_new_session=True,
+        )  # fmt: skip
+
+    def log(self) -> str:
+        return self.log_path.read_text(errors="replace")
+
+    def wait_for_log(self, text: str, timeout: float = 30.0) -> None:
+        """Wait until ``text`` appears in the log; fail with the log if the process dies first."""
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            if text in self.log():
+                return
+            if self.popen.poll() is not None:
+                raise AssertionError(f"sofia {' '.join(self.args)} exited {self.popen.returncode}:\n{self.log()}")
+            time.sleep(0.05)
+        raise AssertionError(f"{text!r} not in log of sofia {' '.join(self.args)} after {timeout}s:\n{self.log()}")
+
+    def stop(self, sig: int = signal.SIGTERM, timeout: float = 10.0) -> int:
+        if self.popen.poll() is None:
+            self.popen.send_signal(sig)
+            try:
+                self.popen.wait(timeout)
+            except subprocess.TimeoutExpired:
+                os.killpg(self.popen.pid, signal.SIGKILL)
+                self.popen.wait(5)
+        self._log.close()
+        return int(self.popen.returncode)
+
+    def kill(self) -> None:
+        """Kill hard (a crash), no clean shutdown."""
+        self.stop(signal.SIGKILL)
+
+
+@pytest.fixture
+def sofia_proc(tmp_path: Path, robot_id: str) -> Iterator[Callable[..., Proc]]:
+    """Start ``sofia ARGS...`` as a separate process with ``SOFIA_ROBOT`` set to this test's id."""
+    procs: list[Proc] = []
+
+    def start(*args: str, env: dict[str, str] | None = None) -> Proc:
+        e = dict(os.environ, SOFIA_ROBOT=robot_id, PYTHONUNBUFFERED="1")
+        e.update(env or {})
+        p = Proc(list(args), tmp_path / f"proc{len(procs)}-{args[0]}.log", e)
+        procs.append(p)
+        return p
+
+    yield start
+    for p in reversed(procs):
+        p.stop()
+
+
+def json_lines(text: str) -> list[dict[str, object]]:
+    """Parse every line of ``text`` that is a JSON object."""
+    out = []
+    for line in text.splitlines():
+        line = line.strip()
+        if line.startswith("{"):
+            out.append(json.loads(line))
+    return out

@@ -1,0 +1,333 @@
+"""MCAP recordings of the SofIA bus, readable by Foxglove and ROS 2 tools.
+
+Layout: profile ``ros2``; every channel has a ``ros2msg`` schema (the ``.msg`` text of the ROS 2
+type, from :func:`sofia_schemas.rosmsg.msgdef`) and ``cdr`` message encoding. Clouds are
+``sensor_msgs/msg/PointCloud2`` on :data:`~sofia_schemas.keys.TOPIC_POINTS` (base frame) or
+:data:`~sofia_schemas.keys.TOPIC_CAMERA_POINTS` (camera frame); flange poses
+``geometry_msgs/msg/TransformStamped`` on :data:`~sofia_schemas.keys.TOPIC_FLANGE_POSE`; blob
+observations ``geometry_msgs/msg/PointStamped`` on :data:`~sofia_schemas.keys.TOPIC_BLOB`.
+Ground truth of synthetic recordings is JSON in the metadata record ``sofia.truth`` (key ``json``).
+
+Readers are lazy iterators: messages are read chunk by chunk, never all at once. Time ranges are
+log times in integer nanoseconds, ``start_ns`` inclusive and ``end_ns`` exclusive.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Iterable, Iterator
+from dataclasses import dataclass, field
+from pathlib import Path
+from types import TracebackType
+from typing import IO, Any
+
+from mcap.exceptions import McapError
+from mcap.reader import McapReader, make_reader
+from mcap.well_known import MessageEncoding, Profile, SchemaEncoding
+from mcap.writer import CompressionType, Writer
+from sofia_schemas import pointcloud, rosmsg
+from sofia_schemas.keys import TOPIC_BLOB, TOPIC_FLANGE_POSE
+from sofia_schemas.messages import BlobObservation, FlangePose
+from sofia_schemas.pointcloud import PointCloud2
+
+from .errors import BadTruthError, NotAnMcapError, RecordingError, RecordingNotFoundError, UnknownSchemaError
+
+TRUTH_METADATA = "sofia.truth"
+TRUTH_KEY = "json"
+COMPRESSIONS = {"zstd": CompressionType.ZSTD, "lz4": CompressionType.LZ4, "none": CompressionType.NONE}
+
+
+@dataclass(frozen=True)
+class RecordedMessage:
+    """One recorded message: ``data`` is the CDR bytes exactly as recorded."""
+
+    topic: str
+    schema_name: str
+    log_time_ns: int
+    publish_time_ns: int
+    data: bytes
+
+
+class McapWriter:
+    """Write a SofIA recording (context manager; the file is complete after ``close``).
+
+    >>> with McapWriter("out.mcap") as w:  # doctest: +SKIP
+    ...     w.write_cloud(TOPIC_POINTS, cdr, log_time_ns=cloud_stamp_ns)
+    """
+
+    def __init__(
+        self, path: str | Path, compression: str = "zstd", chunk_size: int = 4 * 1024 * 1024
+    ) -> None:
+        if compression not in COMPRESSIONS:
+            raise RecordingError(f"compression {compression!r} is not one of {sorted(COMPRESSIONS)}")
+        self.path = Path(path)
+        self._file: IO[bytes] = open(self.path, "wb")  # closed in close()
+        self._writer = Writer(self._file, compression=COMPRESSIONS[compression], chunk_size=chunk_size)
+        self._writer.start(profile=Profile.ROS2, library="sofia_replay")
+        self._schemas: dict[str, int] = {}
+        self._channels: dict[str, tuple[int, str]] = {}
+        self._sequence: dict[int, int] = {}
+        self._closed = False
+
+    # --- context manager --------------------------------------------------
+    def __enter__(self) -> McapWriter:
+        return self
+
+    def __exit__(
+        self, exc_type: type[BaseException] | None, exc: BaseException | None, tb: TracebackType | None
+    ) -> None:
+        self.close()
+
+    def close(self) -> None:
+        """Write the summary and indexes and close the file."""
+        if self._closed:
+            return
+        self._closed = True
+        try:
+            self._writer.finish()
+        finally:
+            self._file.close()
+
+    # --- channels ---------------------------------------------------------
+    def _channel(self, topic: str, typename: str) -> int:
+        known = self._channels.get(topic)
+        if known is not None:
+            if known[1] != typename:
+                raise RecordingError(f"topic {topic!r} already carries {known[1]}, cannot write {typename}")
+            return known[0]
+        schema_id = self._schemas.get(typename)
+        if schema_id is None:
+            try:
+                text = rosmsg.msgdef(typename)
+            except Exception as e:  # rosbags raises KeyError or its own TypesysError
+                raise UnknownSchemaError(typename) from e
+            schema_id = self._writer.register_schema(typename, SchemaEncoding.ROS2, text.encode())
+            self._schemas[typename] = schema_id
+        channel_id = self._writer.register_channel(topic, MessageEncoding.CDR, schema_id)
+        self._channels[topic] = (channel_id, typename)
+        return channel_id
+
+    # --- messages ---------------------------------------------------------
+    def write_raw(
+        self, topic: str, typename: str, cdr: bytes | bytearray | memoryview, log_time_ns: int,
+        publish_time_ns: int | None = None,
+    ) -> None:  # fmt: skip
+        """Write CDR bytes of ROS 2 type ``typename`` (e.g. ``geometry_msgs/msg/PoseStamped``)."""
+        if self._closed:
+            raise RecordingError(f"{self.path} is closed")
+        channel_id = self._channel(topic, typename)
+        seq = self._sequence.get(channel_id, 0)
+        self._sequence[channel_id] = seq + 1
+        self._writer.add_message(
+            channel_id=channel_id,
+            log_time=int(log_time_ns),
+            data=bytes(cdr),
+            publish_time=int(log_time_ns if publish_time_ns is None else publish_time_ns),
+            sequence=seq,
+        )
+
+    def write_cloud(
+        self, topic: str, cdr: bytes | bytearray | memoryview, log_time_ns: int,
+        publish_time_ns: int | None = None,
+    ) -> None:  # fmt: skip
+        """Write a CDR ``sensor_msgs/msg/PointCloud2`` (e.g. from ``pointcloud.encode_points``)."""
+        self.write_raw(topic, rosmsg.POINTCLOUD2, cdr, log_time_ns, publish_time_ns)
+
+    def write_flange_pose(self, topic: str, pose: FlangePose, log_time_ns: int | None = None) -> None:
+        """Write ``T_base_flange`` as a CDR TransformStamped; log time defaults to its stamp."""
+        t_ns = pose.stamp_ns if log_time_ns is None else log_time_ns
+        self.write_raw(topic, rosmsg.TRANSFORM_STAMPED, rosmsg.encode_flange_pose(pose), t_ns)
+
+    def write_blob(self, topic: str, obs: BlobObservation, log_time_ns: int | None = None) -> None:
+        """Write a camera-frame blob position as a CDR PointStamped; log time defaults to its stamp."""
+        t_ns = obs.stamp_ns if log_time_ns is None else log_time_ns
+        self.write_raw(topic, rosmsg.POINT_STAMPED, rosmsg.encode_blob(obs), t_ns)
+
+    # --- metadata ---------------------------------------------------------
+    def add_metadata(self, name: str, data: dict[str, str]) -> None:
+        bad = {k: type(v).__name__ for k, v in data.items() if not isinstance(v, str)}
+        if bad:
+            raise RecordingError(f"metadata {name!r} values must be strings, got {bad}")
+        self._writer.add_metadata(name, dict(data))
+
+    def add_truth(self, obj: dict[str, Any]) -> None:
+        """Store ground truth as JSON in metadata ``sofia.truth`` (key ``json``)."""
+        self.add_metadata(TRUTH_METADATA, {TRUTH_KEY: json.dumps(obj)})
+
+
+# --- reading ----------------------------------------------------------------
+def _open(path: str | Path) -> tuple[IO[bytes], McapReader]:
+    path = Path(path)
+    if not path.is_file():
+        raise RecordingNotFoundError(path)
+    f = open(path, "rb")  # closed by the callers
+    try:
+        return f, make_reader(f)
+    except (McapError, ValueError, EOFError) as e:
+        f.close()
+        raise NotAnMcapError(path, str(e) or type(e).__name__) from None
+
+
+def iter_messages(
+    path: str | Path, topics: Iterable[str] | None = None, start_ns: int | None = None,
+    end_ns: int | None = None,
+) -> Iterator[RecordedMessage]:  # fmt: skip
+    """Recorded messages in log-time order, read lazily, ``start_ns <= log_time < end_ns``."""
+    topic_list = None if topics is None else list(topics)
+    f, reader = _open(path)
+    with f:
+        try:
+            for schema, channel, message in reader.iter_messages(
+                topics=topic_list, starting_at=start_ns, ending_before=end_ns
+            ):
+                yield RecordedMessage(
+                    topic=channel.topic,
+                    schema_name=schema.name if schema is not None else "",
+                    log_time_ns=message.log_time,
+                    publish_time_ns=message.publish_time,
+                    data=message.data,
+                )
+        except McapError as e:
+            raise NotAnMcapError(path, str(e)) from None
+
+
+def iter_clouds(
+    path: str | Path, topics: Iterable[str] | None = None, start_ns: int | None = None,
+    end_ns: int | None = None,
+) -> Iterator[tuple[str, int, PointCloud2]]:  # fmt: skip
+    """``(topic, log_time_ns, cloud)`` for every PointCloud2 message; clouds view the read bytes."""
+    cloud_topics = [t for t, s in summary(path).topics.items() if s.schema_name == rosmsg.POINTCLOUD2]
+    if topics is not None:
+        wanted = set(topics)
+        cloud_topics = [t for t in cloud_topics if t in wanted]
+    if not cloud_topics:
+        return
+    for m in iter_messages(path, cloud_topics, start_ns, end_ns):
+        yield m.topic, m.log_time_ns, pointcloud.decode(m.data)
+
+
+def iter_flange_poses(path: str | Path, topic: str = TOPIC_FLANGE_POSE) -> Iterator[tuple[int, FlangePose]]:
+    """``(log_time_ns, pose)`` of the recorded flange poses."""
+    for m in iter_messages(path, [topic]):
+        yield m.log_time_ns, rosmsg.decode_flange_pose(m.data)
+
+
+def iter_blobs(path: str | Path, topic: str = TOPIC_BLOB) -> Iterator[tuple[int, BlobObservation]]:
+    """``(log_time_ns, observation)`` of the recorded blob observations."""
+    for m in iter_messages(path, [topic]):
+        yield m.log_time_ns, rosmsg.decode_blob(m.data)
+
+
+def read_metadata(path: str | Path) -> dict[str, dict[str, str]]:
+    """Every metadata record, by name (a later record of the same name wins)."""
+    f, reader = _open(path)
+    with f:
+        try:
+            return {m.name: dict(m.metadata) for m in reader.iter_metadata()}
+        except McapError as e:
+            raise NotAnMcapError(path, str(e)) from None
+
+
+def read_truth(path: str | Path) -> dict[str, Any] | None:
+    """The ground truth stored by :meth:`McapWriter.add_truth`, or None."""
+    record = read_metadata(path).get(TRUTH_METADATA)
+    if record is None:
+        return None
+    if TRUTH_KEY not in record:
+        raise BadTruthError(
+            path, f"metadata {TRUTH_METADATA!r} has no key {TRUTH_KEY!r} (keys {sorted(record)})"
+        )
+    try:
+        obj = json.loads(record[TRUTH_KEY])
+    except json.JSONDecodeError as e:
+        raise BadTruthError(path, str(e)) from None
+    if not isinstance(obj, dict):
+        raise BadTruthError(path, f"expected a JSON object, got {type(obj).__name__}")
+    return obj
+
+
+# --- summary ----------------------------------------------------------------
+@dataclass
+class TopicSummary:
+    schema_name: str
+    message_encoding: str
+    count: int = 0
+
+
+@dataclass
+class RecordingSummary:
+    """What ``sofia replay info`` prints."""
+
+    path: str
+    topics: dict[str, TopicSummary] = field(default_factory=dict)
+    start_ns: int = 0
+    end_ns: int = 0
+    metadata: list[str] = field(default_factory=list)
+
+    @property
+    def n_messages(self) -> int:
+        return sum(t.count for t in self.topics.values())
+
+    @property
+    def duration_s(self) -> float:
+        return (self.end_ns - self.start_ns) / 1e9
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "path": self.path,
+            "n_messages": self.n_messages,
+            "start_ns": self.start_ns,
+            "end_ns": self.end_ns,
+            "duration_s": self.duration_s,
+            "topics": {
+                t: {"schema": s.schema_name, "encoding": s.message_encoding, "count": s.count}
+                for t, s in self.topics.items()
+            },
+            "metadata": self.metadata,
+        }
+
+    def format(self) -> str:
+        lines = [
+            f"file:      {self.path}",
+            f"messages:  {self.n_messages}",
+            f"duration:  {self.duration_s:.3f} s  (log time {self.start_ns} .. {self.end_ns} ns)",
+            f"metadata:  {', '.join(self.metadata) or '-'}",
+            "topics:",
+        ]
+        width = max((len(t) for t in self.topics), default=0)
+        for topic, s in sorted(self.topics.items()):
+            lines.append(f"  {topic:<{width}}  {s.count:>7}  {s.schema_name} ({s.message_encoding})")
+        return "\n".join(lines)
+
+
+def summary(path: str | Path) -> RecordingSummary:
+    """Topics, message counts, schema names and time span, from the summary section when present."""
+    f, reader = _open(path)
+    out = RecordingSummary(path=str(path))
+    with f:
+        try:
+            s = reader.get_summary()
+            out.metadata = [m.name for m in reader.iter_metadata()]
+            if s is not None and s.statistics is not None:
+                for cid, ch in s.channels.items():
+                    schema = s.schemas.get(ch.schema_id)
+                    out.topics[ch.topic] = TopicSummary(
+                        schema_name=schema.name if schema else "",
+                        message_encoding=ch.message_encoding,
+                        count=s.statistics.channel_message_counts.get(cid, 0),
+                    )
+                out.start_ns = s.statistics.message_start_time
+                out.end_ns = s.statistics.message_end_time
+                return out
+            first: int | None = None
+            for schema, ch, msg in reader.iter_messages(log_time_order=False):
+                ts = out.topics.setdefault(
+                    ch.topic, TopicSummary(schema.name if schema else "", ch.message_encoding)
+                )
+                ts.count += 1
+                first = msg.log_time if first is None else min(first, msg.log_time)
+                out.end_ns = max(out.end_ns, msg.log_time)
+            out.start_ns = first or 0
+        except McapError as e:
+            raise NotAnMcapError(path, str(e)) from None
+    return out

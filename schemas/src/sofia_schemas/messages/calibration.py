@@ -18,6 +18,20 @@ class CalibrationSample(Message):
     sample_id: int | None = None
 
 
+class CalibrationSummary(Message):
+    """The other fit of a calibration (with every sample, or without the outliers)."""
+
+    samples: list[int]
+    matrix: list[list[float]]  # 4x4 T_flange_cam
+    translation: Vec3
+    quaternion_xyzw: Quat
+    target_base: Vec3
+    spread_mm: Vec3
+    passes: bool
+    residuals_mm: list[float]
+    dissipation_after: float
+
+
 class CalibrationResult(Message):
     """``T_flange_cam``: maps camera optical frame points into the flange frame (metres)."""
 
@@ -42,3 +56,8 @@ class CalibrationResult(Message):
     warnings: list[str] = []
     ros1_static_transform: str = ""
     ros2_static_transform: str = ""
+    leave_one_out_mm: list[float] = []  # per-sample distance to the target of a fit without it
+    noise_scale: float = 1.0  # a-posteriori factor on the modelled noise
+    sample_ids: list[int] = []  # ids of the samples (service), in the order of the indices above
+    with_all_samples: CalibrationSummary | None = None  # when outliers were excluded
+    without_outliers: CalibrationSummary | None = None  # when outliers were found but kept

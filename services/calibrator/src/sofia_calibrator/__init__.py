@@ -1,0 +1,27 @@
+"""SofIA calibrator: point-based hand-eye calibration (``T_flange_cam``), library and online service."""
+
+from .calibrate import Calibration, calibrate
+from .diagnostics import LAB_SPREAD_LIMIT_MM, dissipation, map_to_base, spread
+from .errors import (
+    BlobAmbiguous,
+    BlobCutByEdge,
+    BlobNoDepth,
+    BlobNotFound,
+    CalibrationError,
+    DegenerateMotion,
+    InputMismatch,
+    ParseError,
+    TooFewSamples,
+)
+from .fit import Fit
+from .formats import ros1_static_transform, ros2_static_transform, to_message, to_yaml
+from .lab_io import read_lab, read_poses, read_tfs
+from .solver import Solution, solve
+
+__all__ = [
+    "LAB_SPREAD_LIMIT_MM", "BlobAmbiguous", "BlobCutByEdge", "BlobNoDepth", "BlobNotFound",
+    "Calibration", "CalibrationError", "DegenerateMotion", "Fit", "InputMismatch", "ParseError",
+    "Solution", "TooFewSamples", "calibrate", "dissipation", "map_to_base", "read_lab", "read_poses",
+    "read_tfs", "ros1_static_transform", "ros2_static_transform", "solve", "spread", "to_message",
+    "to_yaml",
+]  # fmt: skip

@@ -1,0 +1,86 @@
+"""What a calibration says about itself: mapped blob, spread, dissipation, uncertainty, outliers,
+observability. Inputs are trusted (validated by :func:`sofia_calibrator.calibrate`)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from . import so3
+from .errors import DegenerateMotion
+
+LAB_SPREAD_LIMIT_MM = 10.0
+MIN_ROTATION_DEG = 2.0
+WEAK_ROTATION_DEG = 10.0
+# Modified z-score above which a residual is a clear outlier (Iglewicz and Hoaglin use 3.5).
+OUTLIER_Z = 3.5
+
+
+def map_to_base(T_base_flange: np.ndarray, T_flange_cam: np.ndarray, p_cam: np.ndarray) -> np.ndarray:
+    """Blob positions mapped into the base frame: T_base_flange_i T_flange_cam p_cam_i.
+
+    T_base_flange: (n, 4, 4); T_flange_cam: (4, 4); p_cam: (n, 3) camera frame, metres.
+    Returns p_base (n, 3), metres.
+    """
+    p_flange = p_cam @ T_flange_cam[:3, :3].T + T_flange_cam[:3, 3]
+    return np.einsum("nij,nj->ni", T_base_flange[:, :3, :3], p_flange) + T_base_flange[:, :3, 3]
+
+
+def spread(p_base: np.ndarray) -> np.ndarray:
+    """Per-axis max - min of (n, 3) points (the lab's criterion): (3,), same unit as the points."""
+    return np.asarray(p_base.max(axis=0) - p_base.min(axis=0))
+
+
+def dissipation(p_base: np.ndarray) -> float:
+    """The lab's objective: sum over ordered pairs i != j of ||p_i - p_j||, metres."""
+    d = p_base[:, None, :] - p_base[None, :, :]
+    return float(np.sqrt(np.einsum("ijk,ijk->ij", d, d)).sum())
+
+
+def std_from_covariance(R_flange_cam: np.ndarray, cov: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """1-sigma of (translation mm, rotation deg about the flange axes) from a (9, 9) covariance.
+
+    cov: covariance of (theta (right perturbation, camera frame), t (flange frame, m), p_base).
+    """
+    cov_phi = R_flange_cam @ cov[:3, :3] @ R_flange_cam.T  # left perturbation: flange axes
+    std_rot = np.degrees(np.sqrt(np.clip(np.diag(cov_phi), 0.0, None)))
+    std_t = 1e3 * np.sqrt(np.clip(np.diag(cov[3:6, 3:6]), 0.0, None))
+    return std_t, std_rot
+
+
+def robust_z(values: np.ndarray) -> np.ndarray:
+    """Modified z-scores (value - median) / (1.4826 MAD) of (n,) values (MAD floored)."""
+    med = np.median(values)
+    mad = 1.4826 * np.median(np.abs(values - med))
+    return np.asarray((values - med) / max(mad, 1e-3 * max(abs(med), 1e-12), 1e-12))
+
+
+def check_motion(T_base_flange: np.ndarray) -> list[str]:
+    """Observability of the flange motion; raises DegenerateMotion, or returns warnings.
+
+    T_base_flange: (n, 4, 4). The rotation vectors of R_0^T R_i must span more than one axis:
+    with translation only, the camera offset is not observable; with rotations about one axis
+    only, the offset along that axis is not.
+    """
+    R = T_base_flange[:, :3, :3]
+    rel = so3.log(np.einsum("ji,njk->nik", R[0], R[1:]))
+    s = np.degrees(np.linalg.svd(rel, compute_uv=False)) / np.sqrt(max(len(rel), 1))
+    s = np.pad(s, (0, 3 - len(s)))
+    if s[0] < MIN_ROTATION_DEG:
+        raise DegenerateMotion(
+            f"the flange barely rotates between samples (largest rotation spread {s[0]:.2f} deg)",
+            "translation-only motion cannot locate the camera; tilt the flange by 15-30 deg about "
+            "two different axes while keeping the blob in view",
+        )
+    if s[1] < MIN_ROTATION_DEG:
+        axis = np.linalg.svd(rel)[2][0]
+        raise DegenerateMotion(
+            f"all rotations are about one axis (flange axis {np.round(axis, 2).tolist()}, "
+            f"spread about other axes {s[1]:.2f} deg)",
+            "the camera offset along that axis is not observable; add poses tilted about another axis",
+        )
+    if s[1] < WEAK_ROTATION_DEG:
+        return [
+            f"rotations are nearly about one axis (spread about the second axis {s[1]:.1f} deg): "
+            "add poses tilted about a different axis to pin the camera offset"
+        ]
+    return []

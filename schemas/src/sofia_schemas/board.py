@@ -50,9 +50,7 @@ class Board(BaseModel):
     def _allowed_in_range(self) -> Board:
         for r, c in self.allowed:
             if not (0 <= r < self.rows and 0 <= c < self.cols):
-                raise ValueError(
-                    f"allowed field {(r, c)} is outside the {self.rows}x{self.cols} board"
-                )
+                raise ValueError(f"allowed field {(r, c)} is outside the {self.rows}x{self.cols} board")
         return self
 
     # --- construction -----------------------------------------------------
@@ -119,9 +117,9 @@ class Board(BaseModel):
         """
         xy_board = np.asarray(xy_board, dtype=np.float64).reshape(-1, 2)
         fx, fy = self.field_size
-        rc = np.floor(
-            xy_board / np.array([fx, fy]) + np.array([self.rows / 2, self.cols / 2])
-        ).astype(np.int64)
+        rc = np.floor(xy_board / np.array([fx, fy]) + np.array([self.rows / 2, self.cols / 2])).astype(
+            np.int64
+        )
         off = (rc[:, 0] < 0) | (rc[:, 0] >= self.rows) | (rc[:, 1] < 0) | (rc[:, 1] >= self.cols)
         rc[off] = -1
         return rc

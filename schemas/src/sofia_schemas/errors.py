@@ -11,22 +11,22 @@ class PointCloudError(SofiaError, ValueError):
     """A PointCloud2 message or its CDR bytes are malformed."""
 
 
-class TruncatedMessage(PointCloudError):
+class TruncatedMessage(PointCloudError):  # noqa: N818 - public API names
     def __init__(self, what: str, need: int, have: int) -> None:
         super().__init__(f"CDR buffer truncated while reading {what}: need {need} bytes, have {have}")
 
 
-class UnsupportedEncoding(PointCloudError):
+class UnsupportedEncoding(PointCloudError):  # noqa: N818 - public API names
     def __init__(self, what: str) -> None:
         super().__init__(what)
 
 
-class MissingField(PointCloudError):
+class MissingField(PointCloudError):  # noqa: N818 - public API names
     def __init__(self, name: str, available: list[str]) -> None:
         super().__init__(f"PointCloud2 has no field {name!r} (fields: {available})")
 
 
-class SizeMismatch(PointCloudError):
+class SizeMismatch(PointCloudError):  # noqa: N818 - public API names
     def __init__(self, what: str) -> None:
         super().__init__(what)
 

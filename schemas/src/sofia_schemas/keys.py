@@ -37,7 +37,7 @@ DEFAULT_ROBOT = "panda"
 ROBOT_ENV = "SOFIA_ROBOT"
 ROOT = "sofia"
 
-_ROBOT_RE = re.compile(r"^[A-Za-z0-9_\-]+$")
+_ROBOT_RE = re.compile(r"[A-Za-z0-9_\-]+")
 
 # MCAP topic names (ROS 2 style) <-> bus keys. The lab's base-frame cloud topic is /pc_glob.
 TOPIC_POINTS = "/pc_glob"
@@ -68,7 +68,7 @@ class Keys:
     robot: str = DEFAULT_ROBOT
 
     def __post_init__(self) -> None:
-        if not _ROBOT_RE.match(self.robot):
+        if not _ROBOT_RE.fullmatch(self.robot):
             raise ValueError(
                 f"robot id {self.robot!r} is not a valid key chunk: use letters, digits, '_' and '-'"
             )

@@ -42,7 +42,7 @@ class PointField:
 
 
 XYZ_FIELDS = (PointField("x", 0, FLOAT32), PointField("y", 4, FLOAT32), PointField("z", 8, FLOAT32))
-XYZRGB_FIELDS = XYZ_FIELDS + (PointField("rgb", 12, FLOAT32),)
+XYZRGB_FIELDS = (*XYZ_FIELDS, PointField("rgb", 12, FLOAT32))
 
 
 @dataclass
@@ -120,20 +120,28 @@ class PointCloud2:
         n = self.n_points
         buf = np.frombuffer(self.data, dtype=np.uint8)
         if count == 1:
-            return np.ndarray(
-                shape=(self.height, self.width),
+            return (
+                np.ndarray(
+                    shape=(self.height, self.width),
+                    dtype=dtype,
+                    buffer=buf,
+                    offset=f.offset + offset,
+                    strides=(self.row_step, self.point_step),
+                ).reshape(self.shape)
+                if n
+                else np.zeros(self.shape, dtype)
+            )
+        return (
+            np.ndarray(
+                shape=(self.height, self.width, count),
                 dtype=dtype,
                 buffer=buf,
                 offset=f.offset + offset,
-                strides=(self.row_step, self.point_step),
-            ).reshape(self.shape) if n else np.zeros(self.shape, dtype)
-        return np.ndarray(
-            shape=(self.height, self.width, count),
-            dtype=dtype,
-            buffer=buf,
-            offset=f.offset + offset,
-            strides=(self.row_step, self.point_step, dtype.itemsize),
-        ).reshape(self.shape + (count,)) if n else np.zeros(self.shape + (count,), dtype)
+                strides=(self.row_step, self.point_step, dtype.itemsize),
+            ).reshape((*self.shape, count))
+            if n
+            else np.zeros((*self.shape, count), dtype)
+        )
 
     def field(self, name: str) -> np.ndarray:
         """Read-only view of one field, shape ``shape`` (or ``shape + (count,)``)."""
@@ -169,7 +177,7 @@ class PointCloud2:
 
 # --- CDR reading ------------------------------------------------------------
 class _Reader:
-    __slots__ = ("buf", "pos", "n")
+    __slots__ = ("buf", "n", "pos")
 
     def __init__(self, buf: memoryview) -> None:
         self.buf = buf
@@ -225,7 +233,9 @@ def decode(payload: bytes | bytearray | memoryview) -> PointCloud2:
         raise TruncatedMessage("CDR encapsulation header", 4, len(buf))
     head = bytes(buf[:4])
     if head[:2] == CDR_BE[:2]:
-        raise UnsupportedEncoding("CDR payload is big-endian (encapsulation 0x0000); only little-endian CDR is supported")
+        raise UnsupportedEncoding(
+            f"CDR payload is big-endian (encapsulation {head.hex()}); only little-endian CDR is supported"
+        )
     if head[:2] != CDR_LE[:2]:
         raise UnsupportedEncoding(
             f"not a CDR PointCloud2: encapsulation header is {head.hex()}, expected 00010000"

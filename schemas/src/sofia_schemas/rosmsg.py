@@ -113,6 +113,7 @@ def decode_blob(payload: bytes | bytearray | memoryview) -> BlobObservation:
             stamp_ns=msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec,
             frame_id=msg.header.frame_id,
             position=(float(p[0]), float(p[1]), float(p[2])),
+            confidence=1.0,
         )
     except PayloadError:
         raise

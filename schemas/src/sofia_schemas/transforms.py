@@ -23,8 +23,8 @@ def as_transforms(T: np.ndarray, name: str = "T", tol: float = ORTHONORMAL_TOL) 
     if T.shape[-2:] != (4, 4) or T.ndim not in (2, 3):
         raise ValueError(f"{name} must have shape (4, 4) or (n, 4, 4), got {T.shape}")
     if not np.all(np.isfinite(T)):
-        bad = np.argwhere(~np.isfinite(T.reshape(-1, 16)).all(axis=1)).ravel().tolist()
-        raise ValueError(f"{name} has non-finite values (matrices {bad})")
+        nonfinite = np.argwhere(~np.isfinite(T.reshape(-1, 16)).all(axis=1)).ravel().tolist()
+        raise ValueError(f"{name} has non-finite values (matrices {nonfinite})")
     Ts = T.reshape(-1, 4, 4)
     R = Ts[:, :3, :3]
     err = np.abs(np.einsum("nji,njk->nik", R, R) - np.eye(3)).max(axis=(1, 2))
@@ -38,7 +38,9 @@ def as_transforms(T: np.ndarray, name: str = "T", tol: float = ORTHONORMAL_TOL) 
     last = np.abs(Ts[:, 3, :] - np.array([0.0, 0.0, 0.0, 1.0])).max(axis=1)
     bad = np.flatnonzero(last > tol)
     if bad.size:
-        raise ValueError(f"{name}: last row of matrix {int(bad[0])} is {Ts[bad[0], 3].tolist()}, expected [0, 0, 0, 1]")
+        raise ValueError(
+            f"{name}: last row of matrix {int(bad[0])} is {Ts[bad[0], 3].tolist()}, expected [0, 0, 0, 1]"
+        )
     return T
 
 
@@ -85,7 +87,7 @@ def make_transform(translation: np.ndarray, q_xyzw: np.ndarray) -> np.ndarray:
     """(4, 4) or (n, 4, 4) transforms from translations (…, 3) and quaternions (…, 4) x y z w."""
     t = np.asarray(translation, dtype=np.float64)
     R = quat_xyzw_to_matrix(q_xyzw)
-    T = np.zeros(R.shape[:-2] + (4, 4))
+    T = np.zeros((*R.shape[:-2], 4, 4))
     T[..., :3, :3] = R
     T[..., :3, 3] = t
     T[..., 3, 3] = 1.0

@@ -64,44 +64,91 @@ def add_zenoh_args(parser: argparse.ArgumentParser) -> None:
     g.add_argument("--zenoh-config", metavar="FILE", help="json5 Zenoh config file")
 
 
+def _explicit(options: ZenohOptions, env: dict[str, str]) -> dict[str, object]:
+    """Settings given by flags (level 4) or, failing that, the environment (level 3)."""
+    out: dict[str, object] = {}
+    mode = options.mode or env.get(ENV_MODE)
+    if mode:
+        if mode not in MODES:
+            raise ValueError(f"Zenoh mode {mode!r} is not one of {MODES}")
+        out["mode"] = mode
+    connect = options.connect or _split(env.get(ENV_CONNECT))
+    if connect:
+        out["connect"] = connect
+    listen = options.listen or _split(env.get(ENV_LISTEN))
+    if listen:
+        out["listen"] = listen
+    return out
+
+
 def resolve(options: ZenohOptions | None = None, env: dict[str, str] | None = None) -> dict[str, object]:
-    """The effective settings as a dict: mode, connect, listen, config_file, multicast."""
+    """The effective settings as a dict: mode, connect, listen, config_file, multicast.
+
+    With a config file, values not overridden by the environment or flags come from the file.
+    """
     options = options or ZenohOptions()
     env = dict(os.environ if env is None else env)
-    mode = options.mode or env.get(ENV_MODE) or "peer"
-    if mode not in MODES:
-        raise ValueError(f"Zenoh mode {mode!r} is not one of {MODES}")
-    connect = options.connect or _split(env.get(ENV_CONNECT))
-    listen = options.listen or _split(env.get(ENV_LISTEN))
-    if not listen and mode != "client":
-        listen = DEFAULT_ROUTER_LISTEN if mode == "router" else DEFAULT_LISTEN
     config_file = options.config_file or env.get(ENV_CONFIG)
     if config_file and not Path(config_file).is_file():
         raise FileNotFoundError(f"Zenoh config file {config_file!r} does not exist")
+    explicit = _explicit(options, env)
+    if config_file:
+        conf = zenoh.Config.from_file(config_file)
+
+        def get(key: str) -> object:
+            return json.loads(conf.get_json(key))
+
+        multicast = get("scouting/multicast/enabled")
+        base: dict[str, object] = {
+            "mode": get("mode") or "peer",
+            "connect": get("connect/endpoints") or [],
+            "listen": get("listen/endpoints") or [],
+            "multicast": True if multicast is None else bool(multicast),  # Zenoh's default is on
+        }
+        base.update(explicit)
+        return {**base, "config_file": config_file}
+    mode = str(explicit.get("mode", "peer"))
+    connect = explicit.get("connect", [])
+    listen = explicit.get("listen", [])
+    if not listen and mode != "client":
+        listen = DEFAULT_ROUTER_LISTEN if mode == "router" else DEFAULT_LISTEN
     return {
         "mode": mode,
         "connect": connect,
         "listen": listen,
-        "config_file": config_file,
+        "config_file": None,
         "multicast": not connect,
     }
 
 
 def zenoh_config(options: ZenohOptions | None = None, env: dict[str, str] | None = None) -> zenoh.Config:
     """Build the :class:`zenoh.Config` of a SofIA process (see the module docstring)."""
+    options = options or ZenohOptions()
+    env = dict(os.environ if env is None else env)
     s = resolve(options, env)
-    conf = zenoh.Config.from_file(str(s["config_file"])) if s["config_file"] else zenoh.Config()
+    if s["config_file"]:
+        # the file is level 2: only what the environment or flags set overrides it
+        conf = zenoh.Config.from_file(str(s["config_file"]))
+        explicit = _explicit(options, env)
+        for name, path in (
+            ("mode", "mode"),
+            ("connect", "connect/endpoints"),
+            ("listen", "listen/endpoints"),
+        ):
+            if name in explicit:
+                conf.insert_json5(path, json.dumps(explicit[name]))
+        return conf
+    conf = zenoh.Config()
     conf.insert_json5("mode", json.dumps(s["mode"]))
     if s["connect"]:
         conf.insert_json5("connect/endpoints", json.dumps(s["connect"]))
     if s["listen"]:
         conf.insert_json5("listen/endpoints", json.dumps(s["listen"]))
-    if not s["config_file"]:
-        if s["multicast"]:
-            conf.insert_json5("scouting/multicast/enabled", "true")
-            conf.insert_json5("scouting/multicast/interface", json.dumps("lo"))
-        else:
-            conf.insert_json5("scouting/multicast/enabled", "false")
+    if s["multicast"]:
+        conf.insert_json5("scouting/multicast/enabled", "true")
+        conf.insert_json5("scouting/multicast/interface", json.dumps("lo"))
+    else:
+        conf.insert_json5("scouting/multicast/enabled", "false")
     return conf
 
 

@@ -1,0 +1,135 @@
+"""Bus tools for people: ``sofia echo``, ``sofia query``, ``sofia health`` and ``sofia router``."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import sys
+import threading
+import time
+from pathlib import Path
+
+import zenoh
+
+from .decode import describe
+from .keys import Keys, default_robot
+from .messages import ServiceStatus
+from .service import StopFlag
+from .zenoh_config import ZenohOptions, add_zenoh_args, zenoh_config
+
+log = logging.getLogger("sofia.bus")
+HEALTHY = ("ok", "degraded")
+
+
+def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+    p = sub.add_parser("echo", help="print what arrives on a key expression")
+    p.add_argument("key", help="key expression, e.g. 'sofia/panda/detector/detections' or 'sofia/**'")
+    p.add_argument("--count", type=int, default=0, help="stop after N messages (0: run until Ctrl-C)")
+    p.add_argument("--timeout", type=float, default=0.0, help="stop after S seconds (0: no limit)")
+    p.add_argument("--json", action="store_true", help="one JSON object per line")
+    add_zenoh_args(p)
+    p.set_defaults(func=echo)
+
+    p = sub.add_parser("query", help="send a query and print the replies")
+    p.add_argument("key", help="e.g. sofia/panda/detector/detect")
+    g = p.add_mutually_exclusive_group()
+    g.add_argument("--payload", type=Path, help="file whose bytes are the query payload")
+    g.add_argument("--data", help="the query payload as a string (e.g. JSON)")
+    p.add_argument("--timeout", type=float, default=10.0)
+    p.add_argument("--json", action="store_true", help="one JSON object per line")
+    add_zenoh_args(p)
+    p.set_defaults(func=query)
+
+    p = sub.add_parser("health", help="exit 0 when SERVICE answers its status and is healthy")
+    p.add_argument("service", help="detector, calibrator, gripper, replay")
+    p.add_argument("--robot", default=None)
+    p.add_argument("--timeout", type=float, default=5.0)
+    add_zenoh_args(p)
+    p.set_defaults(func=health)
+
+    p = sub.add_parser("router", help="run a Zenoh router (what `sofia up` starts)")
+    add_zenoh_args(p)
+    p.set_defaults(func=router)
+
+
+def _print(key: str, payload: bytes, encoding: str, as_json: bool) -> None:
+    desc = describe(payload, encoding)
+    if as_json:
+        print(json.dumps({"key": key, "encoding": encoding, **desc}), flush=True)
+    else:
+        print(f"── {key}  [{encoding or 'no encoding'}]", flush=True)
+        print(json.dumps(desc.get("json", desc), indent=2), flush=True)
+
+
+def echo(args: argparse.Namespace) -> int:
+    stop = StopFlag()
+    count = 0
+    lock = threading.Lock()
+
+    def on_sample(sample: zenoh.Sample) -> None:
+        nonlocal count
+        with lock:
+            _print(str(sample.key_expr), sample.payload.to_bytes(), str(sample.encoding), args.json)
+            count += 1
+            if args.count and count >= args.count:
+                stop.set()
+
+    with zenoh.open(zenoh_config(ZenohOptions.from_args(args))) as session:
+        session.declare_subscriber(args.key, on_sample)
+        log.info("listening on %s", args.key)
+        stop.wait(args.timeout or None)
+    return 0 if (count or not args.count) else 1
+
+
+def query(args: argparse.Namespace) -> int:
+    payload = args.payload.read_bytes() if args.payload else (args.data.encode() if args.data else None)
+    n_ok = n_err = 0
+    with zenoh.open(zenoh_config(ZenohOptions.from_args(args))) as session:
+        for reply in session.get(args.key, payload=payload, timeout=args.timeout):
+            if reply.ok is not None:
+                n_ok += 1
+                s = reply.ok
+                _print(str(s.key_expr), s.payload.to_bytes(), str(s.encoding), args.json)
+            else:
+                n_err += 1
+                err = reply.err
+                desc = describe(err.payload.to_bytes(), str(err.encoding))
+                print(
+                    json.dumps({"error": desc.get("json", desc)}, indent=None if args.json else 2), flush=True
+                )
+    if n_ok == 0 and n_err == 0:
+        print(f"sofia query: no reply from {args.key} within {args.timeout} s", file=sys.stderr)
+        return 1
+    return 1 if n_err else 0
+
+
+def health(args: argparse.Namespace) -> int:
+    key = Keys(args.robot or default_robot()).status(args.service)
+    deadline = time.monotonic() + args.timeout
+    with zenoh.open(zenoh_config(ZenohOptions.from_args(args))) as session:
+        while time.monotonic() < deadline:
+            for reply in session.get(key, timeout=max(0.5, deadline - time.monotonic())):
+                if reply.ok is None:
+                    continue
+                try:
+                    status = ServiceStatus.model_validate_json(reply.ok.payload.to_bytes())
+                except ValueError as e:
+                    print(f"{key}: unreadable status: {e}", file=sys.stderr)
+                    return 1
+                print(f"{args.service}: {status.state} {status.detail}".rstrip())
+                return 0 if status.state in HEALTHY else 1
+            time.sleep(0.2)
+    print(f"{args.service}: no status on {key} within {args.timeout} s", file=sys.stderr)
+    return 1
+
+
+def router(args: argparse.Namespace) -> int:
+    options = ZenohOptions.from_args(args)
+    options.mode = "router"
+    stop = StopFlag()
+    with zenoh.open(zenoh_config(options)) as session:
+        log.info("router ready: zid %s", session.zid())
+        stop.wait()
+    log.info("router stopped")
+    return 0

@@ -1,0 +1,211 @@
+"""``sofia up``: the router and every service as separate local processes, without Docker.
+
+Each process writes its own log (``<log-dir>/<name>.log``); a process that dies is restarted
+with a growing back-off; health comes from each service's status queryable; Ctrl-C (or SIGTERM)
+stops everything cleanly (SIGTERM, then SIGKILL after a grace period).
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import os
+import shutil
+import subprocess
+import sys
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import IO
+
+import zenoh
+
+from .keys import Keys, default_robot
+from .messages import ServiceStatus
+from .service import StopFlag
+from .zenoh_config import DEFAULT_ROUTER_LISTEN, ZenohOptions, add_zenoh_args, zenoh_config
+
+log = logging.getLogger("sofia.up")
+GRACE_S = 8.0
+MAX_BACKOFF_S = 10.0
+
+
+def sofia_executable() -> list[str]:
+    """How to run the ``sofia`` command of this installation."""
+    exe = Path(sys.executable).with_name("sofia")
+    if exe.exists():
+        return [str(exe)]
+    found = shutil.which("sofia")
+    return [found] if found else [sys.executable, "-m", "sofia_schemas.cli"]
+
+
+@dataclass
+class ServiceSpec:
+    """A process to run: ``sofia ARGS...``; ``status`` is the service name of its status key."""
+
+    name: str
+    args: list[str]
+    status: str | None = None
+
+
+@dataclass
+class Managed:
+    spec: ServiceSpec
+    popen: subprocess.Popen[bytes] | None = None
+    log_file: IO[bytes] | None = None
+    restarts: int = 0
+    next_start: float = 0.0
+    backoff: float = 1.0
+    state: str = "starting"
+    exits: list[int] = field(default_factory=list)
+
+
+class Launcher:
+    """Starts, watches, restarts and stops SofIA processes."""
+
+    def __init__(self, specs: list[ServiceSpec], log_dir: Path, robot: str, env: dict[str, str] | None = None,
+                 restart: bool = True) -> None:  # fmt: skip
+        self.procs = {s.name: Managed(s) for s in specs}
+        self.log_dir = Path(log_dir)
+        self.robot = robot
+        self.env = dict(os.environ if env is None else env, SOFIA_ROBOT=robot, PYTHONUNBUFFERED="1")
+        self.restart = restart
+        self.log_dir.mkdir(parents=True, exist_ok=True)
+
+    def _start(self, m: Managed) -> None:
+        path = self.log_dir / f"{m.spec.name}.log"
+        m.log_file = open(path, "ab")
+        cmd = [*sofia_executable(), *m.spec.args]
+        m.popen = subprocess.Popen(cmd, stdout=m.log_file, stderr=subprocess.STDOUT, env=self.env,
+                                   start_new_session=True)  # fmt: skip
+        m.state = "starting"
+        log.info("started %-10s pid %d: %s (log %s)", m.spec.name, m.popen.pid, " ".join(m.spec.args), path)
+
+    def start(self) -> None:
+        for m in self.procs.values():
+            self._start(m)
+
+    def poll(self) -> None:
+        """Restart processes that exited (with back-off)."""
+        now = time.monotonic()
+        for m in self.procs.values():
+            if m.popen is None or m.popen.poll() is None:
+                if m.popen is None and now >= m.next_start:
+                    self._start(m)
+                continue
+            code = m.popen.returncode
+            m.exits.append(code)
+            if m.log_file:
+                m.log_file.close()
+            m.popen, m.state = None, "exited"
+            log.warning(
+                "%s exited with code %d (see %s)", m.spec.name, code, self.log_dir / f"{m.spec.name}.log"
+            )
+            if self.restart:
+                m.restarts += 1
+                m.next_start = now + m.backoff
+                m.backoff = min(MAX_BACKOFF_S, m.backoff * 2)
+                log.info("restarting %s in %.0f s (restart %d)", m.spec.name, m.next_start - now, m.restarts)
+
+    def check_health(self, session: zenoh.Session, timeout: float = 1.0) -> dict[str, str]:
+        keys = Keys(self.robot)
+        for m in self.procs.values():
+            if m.popen is None:
+                continue
+            if m.spec.status is None:
+                m.state = "running"
+                continue
+            state = "no status"
+            for reply in session.get(keys.status(m.spec.status), timeout=timeout):
+                if reply.ok is not None:
+                    try:
+                        state = ServiceStatus.model_validate_json(reply.ok.payload.to_bytes()).state
+                    except ValueError:
+                        state = "bad status"
+                    break
+            if state == "ok":
+                m.backoff = 1.0
+            m.state = state
+        return {name: m.state for name, m in self.procs.items()}
+
+    def table(self) -> str:
+        rows = [f"{'service':<12}{'pid':>8}  {'state':<12}{'restarts':>8}"]
+        for name, m in self.procs.items():
+            pid = str(m.popen.pid) if m.popen else "-"
+            rows.append(f"{name:<12}{pid:>8}  {m.state:<12}{m.restarts:>8}")
+        return "\n".join(rows)
+
+    def stop(self) -> None:
+        for m in self.procs.values():
+            if m.popen is not None and m.popen.poll() is None:
+                m.popen.terminate()
+        deadline = time.monotonic() + GRACE_S
+        for m in self.procs.values():
+            if m.popen is None:
+                continue
+            try:
+                m.popen.wait(max(0.1, deadline - time.monotonic()))
+            except subprocess.TimeoutExpired:
+                log.warning("%s did not stop in %.0f s, killing it", m.spec.name, GRACE_S)
+                m.popen.kill()
+                m.popen.wait(5)
+            if m.log_file:
+                m.log_file.close()
+            log.info("stopped %s (exit %s)", m.spec.name, m.popen.returncode)
+            m.popen = None
+
+
+def default_specs(args: argparse.Namespace) -> list[ServiceSpec]:
+    """The router, detector, calibrator and gripper (emulated unless a serial port is given)."""
+    specs = [ServiceSpec("router", ["router", "--listen", args.router_listen])]
+    if "detector" in args.services:
+        specs.append(ServiceSpec("detector", ["detector", "serve", "--board", str(args.board)], "detector"))
+    if "calibrator" in args.services:
+        specs.append(
+            ServiceSpec(
+                "calibrator",
+                ["calibrator", "serve", "--state-dir", str(args.state_dir / "calibrator")],
+                "calibrator",
+            )
+        )
+    if "gripper" in args.services:
+        port = ["--port", args.gripper_port] if args.gripper_port else ["--emulate"]
+        specs.append(ServiceSpec("gripper", ["gripper", "serve", *port], "gripper"))
+    return specs
+
+
+def add_up_args(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--services", default="detector,calibrator,gripper", type=lambda s: s.split(","),
+                   help="comma-separated services to run (default: all)")  # fmt: skip
+    p.add_argument("--board", type=Path, default=Path("config/board.yaml"))
+    p.add_argument("--state-dir", type=Path, default=Path("var"))
+    p.add_argument("--log-dir", type=Path, default=Path("var/log"))
+    p.add_argument("--gripper-port", default=None, help="serial port of the real gripper (default: emulated)")
+    p.add_argument("--router-listen", default=DEFAULT_ROUTER_LISTEN[0])
+    p.add_argument("--robot", default=None)
+
+
+def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+    p = sub.add_parser("up", help="run the router and all services as local processes")
+    add_up_args(p)
+    add_zenoh_args(p)
+    p.set_defaults(func=up)
+
+
+def up(args: argparse.Namespace) -> int:
+    stop = StopFlag()
+    launcher = Launcher(default_specs(args), args.log_dir, args.robot or default_robot())
+    launcher.start()
+    shown = ""
+    try:
+        with zenoh.open(zenoh_config(ZenohOptions.from_args(args))) as session:
+            while not stop.wait(1.0):
+                launcher.poll()
+                launcher.check_health(session)
+                table = launcher.table()
+                if table != shown:
+                    print(table, flush=True)
+                    shown = table
+    finally:
+        launcher.stop()
+    return 0

@@ -1,0 +1,411 @@
+"""compose.yaml and the Dockerfiles, checked without a Docker engine.
+
+The compose file is validated against the Compose Specification JSON Schema (vendored in
+``data/``); each Dockerfile is parsed to learn which SofIA packages its image installs, and each
+service's ``sofia`` command (and healthcheck) must then be served by those packages alone: by the
+``sofia.commands`` entry points of their pyproject.toml, and by an argument parser built from
+nothing but those entry points. The Zenoh router configs are loaded by the real Zenoh library.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import copy
+import fnmatch
+import functools
+import io
+import json
+import posixpath
+import re
+import shlex
+import tomllib
+from dataclasses import dataclass, field
+from importlib.metadata import EntryPoint, PackageNotFoundError, distribution
+from pathlib import Path
+from typing import Any
+
+import jsonschema
+import pytest
+import yaml
+import zenoh
+from packaging.requirements import Requirement
+from packaging.utils import canonicalize_name
+from sofia_schemas.zenoh_config import resolve
+
+REPO = Path(__file__).resolve().parents[2]
+SCHEMA = Path(__file__).with_name("data") / "compose-spec.json"
+ROUTER = "zenoh"
+RESTART_POLICIES = {"unless-stopped", "on-failure", "always"}
+_VAR = re.compile(r"\$\{(\w+)(?::?-([^}]*))?\}")
+
+
+@functools.cache
+def compose() -> dict[str, Any]:
+    return yaml.safe_load((REPO / "compose.yaml").read_text())
+
+
+def services() -> dict[str, dict[str, Any]]:
+    return compose()["services"]
+
+
+SOFIA_SERVICES = [name for name in services() if name != ROUTER]
+BUILT_SERVICES = [name for name, s in services().items() if "build" in s]
+
+
+def interpolate(text: str) -> str:
+    """Compose-style ``${VAR:-default}`` with the defaults (the tests ignore the caller's shell)."""
+
+    def sub(m: re.Match[str]) -> str:
+        assert m.group(2) is not None, f"${{{m.group(1)}}} in compose.yaml has no default"
+        return m.group(2)
+
+    return _VAR.sub(sub, text)
+
+
+def argv(command: str | list[str]) -> list[str]:
+    parts = shlex.split(command) if isinstance(command, str) else list(command)
+    return [interpolate(p) for p in parts]
+
+
+def health_argv(service: dict[str, Any]) -> list[str]:
+    test = argv(service["healthcheck"]["test"])
+    assert test[0] in ("CMD", "CMD-SHELL"), f"healthcheck test {test} must start with CMD or CMD-SHELL"
+    return test[1:] if test[0] == "CMD" else shlex.split(test[1])
+
+
+def router_config(path: Path) -> dict[str, Any]:
+    """The router config as the Zenoh library reads it (unknown keys are errors there)."""
+    return json.loads(str(zenoh.Config.from_file(str(path))))
+
+
+# --- Dockerfiles -----------------------------------------------------------------------------------
+@dataclass
+class Package:
+    root: Path
+    extras: set[str]
+
+    @functools.cached_property
+    def project(self) -> dict[str, Any]:
+        return tomllib.loads((self.root / "pyproject.toml").read_text())["project"]
+
+    @property
+    def name(self) -> str:
+        return canonicalize_name(self.project["name"])
+
+    def requirements(self) -> list[Requirement]:
+        reqs = list(self.project.get("dependencies", []))
+        for extra in self.extras:
+            reqs += self.project.get("optional-dependencies", {})[extra]
+        return [Requirement(r) for r in reqs]
+
+    def commands(self) -> dict[str, str]:
+        return dict(self.project.get("entry-points", {}).get("sofia.commands", {}))
+
+
+@dataclass
+class Image:
+    dockerfile: Path
+    base: str = ""
+    user: str = "root"
+    copies: list[tuple[str, str]] = field(default_factory=list)  # (container path, repo path)
+    runs: list[str] = field(default_factory=list)
+    pip_args: list[tuple[str, str]] = field(default_factory=list)  # (workdir, argument)
+
+    def repo_path(self, container_path: str) -> Path:
+        for dest, src in self.copies:
+            if container_path == dest or container_path.startswith(dest + "/"):
+                return REPO / src / posixpath.relpath(container_path, dest)
+        raise AssertionError(f"{self.dockerfile.name}: {container_path} was not copied into the image")
+
+    @functools.cached_property
+    def packages(self) -> dict[str, Package]:
+        pkgs = {}
+        for workdir, arg in self.pip_args:
+            m = re.fullmatch(r"(?P<path>[^\[]+)(\[(?P<extras>[^\]]*)\])?", arg)
+            assert m and arg.startswith((".", "/")), (
+                f"{self.dockerfile.name}: pip installs {arg!r} from an index"
+            )
+            root = self.repo_path(posixpath.normpath(posixpath.join(workdir, m["path"])))
+            pkg = Package(root, {e.strip() for e in (m["extras"] or "").split(",") if e.strip()})
+            pkgs[pkg.name] = pkg
+        return pkgs
+
+
+def parse_dockerfile(path: Path) -> Image:
+    image, workdir = Image(path), "/"
+    text = re.sub(
+        r"\\\n", " ", "\n".join(ln for ln in path.read_text().splitlines() if not ln.strip().startswith("#"))
+    )
+    for line in filter(None, (ln.strip() for ln in text.splitlines())):
+        op, _, rest = line.partition(" ")
+        op, rest = op.upper(), rest.strip()
+        if op == "FROM":
+            image.base = rest.split()[0]
+        elif op == "WORKDIR":
+            workdir = posixpath.join(workdir, rest)
+        elif op == "USER":
+            image.user = rest.split(":")[0]
+        elif op == "COPY":
+            *sources, dest = [a for a in shlex.split(rest) if not a.startswith("--")]
+            dest = posixpath.join(workdir, dest)
+            for src in sources:
+                is_dir = (REPO / src).is_dir()
+                target = dest if is_dir or not dest.endswith("/") else posixpath.join(dest, Path(src).name)
+                image.copies.append((posixpath.normpath(target), src.rstrip("/")))
+        elif op == "RUN":
+            image.runs.append(rest)
+            for segment in re.split(r"&&|;", rest):
+                words = shlex.split(segment)
+                if "pip" in words[:3] and "install" in words:
+                    args = words[words.index("install") + 1 :]
+                    with_value = {"-c", "-r", "--constraint", "--requirement"}
+                    for i, a in enumerate(args):
+                        if a.startswith("-"):
+                            if a in with_value:
+                                image.repo_path(posixpath.join(workdir, args[i + 1]))  # copied in?
+                            continue
+                        if i and args[i - 1] in with_value:
+                            continue
+                        image.pip_args.append((workdir, a))
+    return image
+
+
+def image_of(name: str) -> Image:
+    build = services()[name]["build"]
+    return parse_dockerfile(REPO / build.get("context", ".") / build["dockerfile"])
+
+
+def dependency_closure(image: Image) -> set[str]:
+    """Every distribution name pip installs in ``image``, from the pyprojects and installed metadata."""
+    todo = [(n, p.extras) for n, p in image.packages.items()]
+    seen: set[str] = set()
+    while todo:
+        name, extras = todo.pop()
+        if name in seen and not extras:
+            continue
+        seen.add(name)
+        if name in image.packages:
+            reqs = image.packages[name].requirements()
+        else:
+            try:
+                reqs = [Requirement(r) for r in distribution(name).requires or []]
+            except PackageNotFoundError:
+                continue
+            reqs = [
+                r
+                for r in reqs
+                if r.marker is None or any(r.marker.evaluate({"extra": e}) for e in extras | {""})
+            ]
+        for r in reqs:
+            todo.append((canonicalize_name(r.name), set(r.extras)))
+    return seen
+
+
+def image_parser(image: Image) -> argparse.ArgumentParser:
+    """The ``sofia`` parser as the image would build it: only its packages' entry points."""
+    parser = argparse.ArgumentParser(prog="sofia")
+    parser.add_argument("--log-level", default="INFO")
+    sub = parser.add_subparsers(dest="command", required=True)
+    for pkg in image.packages.values():
+        for name, value in pkg.commands().items():
+            EntryPoint(name, value, "sofia.commands").load()(sub)
+    return parser
+
+
+def dockerignored(path: str) -> bool:
+    """Whether a build-context path is excluded by .dockerignore (its ``X`` and ``**/X`` patterns)."""
+    parts = Path(path).parts
+    for pat in (p.strip() for p in (REPO / ".dockerignore").read_text().splitlines()):
+        if not pat or pat.startswith("#"):
+            continue
+        if pat.startswith("**/"):
+            if any(fnmatch.fnmatch(part, pat[3:]) for part in parts):
+                return True
+        elif any(fnmatch.fnmatch("/".join(parts[: i + 1]), pat.strip("/")) for i in range(len(parts))):
+            return True
+    return False
+
+
+# --- the compose file --------------------------------------------------------------------------------
+@functools.cache
+def validator() -> jsonschema.Draft7Validator:
+    schema = json.loads(SCHEMA.read_text())
+    jsonschema.Draft7Validator.check_schema(schema)
+    return jsonschema.Draft7Validator(schema)
+
+
+def schema_errors(doc: dict[str, Any]) -> list[str]:
+    return [f"{'/'.join(map(str, e.absolute_path))}: {e.message}" for e in validator().iter_errors(doc)]
+
+
+def test_compose_file_follows_the_compose_specification() -> None:
+    assert schema_errors(compose()) == []
+
+
+@pytest.mark.parametrize(
+    ("path", "value"),
+    [
+        (("services", "detector", "restart"), 5),  # wrong type
+        (("services", "detector", "healtcheck"), {"test": ["CMD", "true"]}),  # misspelt key
+        (("services", "replay", "depends_on", "zenoh", "condition"), "service_ready"),  # not in enum
+        (("volumes", "sofia state"), None),  # invalid name
+    ],
+)
+def test_the_schema_rejects_a_broken_compose_file(path: tuple[str, ...], value: Any) -> None:
+    doc = copy.deepcopy(compose())
+    node = doc
+    for key in path[:-1]:
+        node = node[key]
+    node[path[-1]] = value
+    assert schema_errors(doc), f"setting {'/'.join(path)} = {value!r} went unnoticed"
+
+
+def test_router_is_the_official_image_pinned_to_1x_with_its_config_mounted() -> None:
+    router = services()[ROUTER]
+    assert re.fullmatch(r"eclipse/zenoh:1\.\d+\.\d+", router["image"]), router["image"]
+    command = argv(router["command"])
+    config_in_container = command[command.index("-c") + 1]
+    mounts = dict(reversed(v.split(":")[:2]) for v in router["volumes"])  # target -> source
+    config = router_config(REPO / mounts[config_in_container])
+    assert config["mode"] == "router"
+    assert config["listen"]["endpoints"] == ["tcp/[::]:7447"]
+    assert config["scouting"]["multicast"]["enabled"] is False
+    assert config["adminspace"]["enabled"] is True and config["adminspace"]["permissions"]["write"] is False
+    # the healthcheck reads the admin space through the REST plugin, reachable only in the container
+    rest = config["plugins"]["rest"]["http_port"]
+    assert rest.startswith("127.0.0.1:"), rest
+    health = health_argv(router)
+    assert any(a.startswith(f"http://{rest}/@/") for a in health), health
+    assert router["ports"] == ["127.0.0.1:7447:7447"], "the bus is published on the host's loopback only"
+
+
+def test_secure_router_and_client_configs_load_in_zenoh() -> None:
+    router = router_config(REPO / "docker/zenoh/router-secure.json5")
+    assert router["listen"]["endpoints"] == ["tls/[::]:7447"]
+    tls = router["transport"]["link"]["tls"]
+    assert tls["enable_mtls"] is True and tls["listen_certificate"] and tls["listen_private_key"]
+    assert router["transport"]["auth"]["usrpwd"]["dictionary_file"]
+    client = router_config(REPO / "docker/zenoh/client-secure.json5")
+    assert client["mode"] == "client" and client["connect"]["endpoints"][0].startswith("tls/")
+    assert client["transport"]["link"]["tls"]["connect_certificate"]
+    assert client["transport"]["auth"]["usrpwd"]["user"]
+    with pytest.raises(Exception, match="listen_certificat"):  # the library does check the keys
+        zenoh.Config.from_json5('{transport: {link: {tls: {listen_certificat: "/x"}}}}')
+
+
+@pytest.mark.parametrize("name", list(services()))
+def test_every_service_restarts_and_has_a_healthcheck(name: str) -> None:
+    service = services()[name]
+    assert service.get("restart") in RESTART_POLICIES, f"{name}: restart is {service.get('restart')!r}"
+    health = service.get("healthcheck", {})
+    assert not health.get("disable") and health_argv(service), f"{name} has no healthcheck"
+
+
+@pytest.mark.parametrize("name", SOFIA_SERVICES)
+def test_every_sofia_service_connects_to_the_router_by_tcp(name: str) -> None:
+    service = services()[name]
+    env = {k: interpolate(str(v)) for k, v in service["environment"].items()}
+    port = router_config(REPO / "docker/zenoh/router.json5")["listen"]["endpoints"][0].rsplit(":", 1)[1]
+    assert env["SOFIA_ZENOH_CONNECT"] == f"tcp/{ROUTER}:{port}"
+    assert env["SOFIA_ROBOT"] == "panda"
+    settings = resolve(env=env)  # what the service's own Zenoh helper makes of that environment
+    assert settings["connect"] == [f"tcp/{ROUTER}:{port}"] and settings["multicast"] is False
+    assert settings["mode"] == "client" and settings["listen"] == []
+    assert service["depends_on"] == {ROUTER: {"condition": "service_healthy"}}
+
+
+def test_profiles_keep_the_optional_services_off_by_default() -> None:
+    profiles = {name: s.get("profiles", []) for name, s in services().items()}
+    assert profiles == {
+        "zenoh": [], "detector": [], "calibrator": [],
+        "gripper": ["gripper"], "gripper-emulated": ["emulate"], "replay": ["replay"],
+    }  # fmt: skip
+
+
+def test_the_gripper_gets_the_serial_device_and_the_emulated_one_does_not() -> None:
+    gripper, emulated = services()["gripper"], services()["gripper-emulated"]
+    host, container = interpolate(gripper["devices"][0]).split(":")[:2]
+    assert host == "/dev/ttyUSB0"
+    command = argv(gripper["command"])
+    assert command[command.index("--port") + 1] == container
+    assert "dialout" in gripper["group_add"]
+    assert "--emulate" in argv(emulated["command"]) and "devices" not in emulated
+
+
+def test_mounts_state_volume_board_and_recordings() -> None:
+    named = set(compose()["volumes"])
+    for name, service in services().items():
+        for volume in service.get("volumes", []):
+            source = volume.split(":")[0]
+            if source.startswith("."):
+                assert source == "./recordings" or (REPO / source).exists(), f"{name}: {source} missing"
+            else:
+                assert source in named, f"{name}: volume {source} is not declared"
+    calibrator = services()["calibrator"]
+    state = next(v.split(":")[1] for v in calibrator["volumes"] if v.split(":")[0] in named)
+    assert calibrator["working_dir"].startswith(state), "the calibrator's files go to the named volume"
+    assert "./config/board.yaml:/etc/sofia/board.yaml:ro" in services()["detector"]["volumes"]
+    replay = services()["replay"]
+    assert "./recordings:/recordings:ro" in replay["volumes"]
+    assert argv(replay["command"])[3].startswith("/recordings/") and "--loop" in argv(replay["command"])
+
+
+# --- the images --------------------------------------------------------------------------------------
+@pytest.mark.parametrize("name", BUILT_SERVICES)
+def test_dockerfile_base_user_and_copies(name: str) -> None:
+    image = image_of(name)
+    assert image.base == "python:3.11-slim"
+    assert image.user not in ("root", "0"), f"{image.dockerfile.name} runs as root"
+    assert image.copies, f"{image.dockerfile.name} copies nothing"
+    for _, src in image.copies:
+        assert (REPO / src).exists(), f"{image.dockerfile.name}: COPY {src} does not exist"
+        assert not dockerignored(src), f"{image.dockerfile.name}: COPY {src} is excluded by .dockerignore"
+
+
+@pytest.mark.parametrize("name", SOFIA_SERVICES)
+def test_image_installs_exactly_the_packages_its_command_needs(name: str) -> None:
+    image = image_of(name)
+    command = argv(services()[name]["command"])
+    assert command[0] == "sofia"
+    assert any(p.project.get("scripts", {}).get("sofia") for p in image.packages.values())
+    owners = [p for p in image.packages.values() if command[1] in p.commands()]
+    assert owners, f"{name}: no package of {image.dockerfile.name} registers `sofia {command[1]}`"
+    needed, todo = set(), [owners[0].name]
+    while todo:  # the SofIA packages the command's package depends on must come from the repository
+        pkg = image.packages.get(todo.pop())
+        assert pkg is not None, f"{image.dockerfile.name} lacks a SofIA dependency of {owners[0].name}"
+        needed.add(pkg.name)
+        todo += [canonicalize_name(r.name) for r in pkg.requirements() if r.name.startswith("sofia-")]
+    assert set(image.packages) == needed, (
+        f"{image.dockerfile.name} installs more than `sofia {command[1]}` needs"
+    )
+    health = health_argv(services()[name])
+    assert health[0] == "sofia" and any(health[1] in p.commands() for p in image.packages.values()), (
+        f"{name}: no package of {image.dockerfile.name} registers `sofia {health[1]}` (healthcheck)"
+    )
+
+
+@pytest.mark.parametrize("name", SOFIA_SERVICES)
+def test_command_and_healthcheck_parse_with_the_image_packages_alone(name: str) -> None:
+    parser = image_parser(image_of(name))
+    for command in (argv(services()[name]["command"]), health_argv(services()[name])):
+        err = io.StringIO()
+        with contextlib.redirect_stderr(err):
+            try:
+                args = parser.parse_args(command[1:])
+            except SystemExit:
+                pytest.fail(
+                    f"{name}: {' '.join(command)} is rejected by the image's sofia:\n{err.getvalue()}"
+                )
+        assert callable(args.func), f"{name}: {' '.join(command)} selects no command"
+
+
+def test_gripper_image_pulls_no_open3d_while_the_detector_needs_it() -> None:
+    gripper = dependency_closure(image_of("gripper"))
+    assert {"sofia-gripper", "dynamixel-sdk", "eclipse-zenoh"} <= gripper
+    assert "open3d" not in gripper, "the gripper image would install open3d"
+    detector = image_of("detector")
+    assert "open3d" in dependency_closure(detector)  # so the check above can fail
+    apt = next(r for r in detector.runs if "apt-get install" in r)
+    assert {"libusb-1.0-0", "libgomp1"} <= set(apt.split()), "Open3D needs libusb-1.0-0 and libgomp1"

@@ -15,8 +15,6 @@ from .noise import camera_sigma
 from .solver import LOSSES
 
 MIN_SAMPLES = 3
-# Isotropic floor of the default noise model: flange pose and blob-centre errors of a real cell.
-ROBOT_SIGMA_M = 1e-3
 
 
 @dataclass
@@ -50,10 +48,12 @@ def _validate(
             f"p_cam rows {behind.tolist()} have z <= 0 (z = {p[behind, 2].tolist()}): the camera optical "
             "frame looks along +z, so the blob must be in front of the camera"
         )
-    if sigma is None or sigma == "depth":
-        s = np.sqrt(camera_sigma(p) ** 2 + ROBOT_SIGMA_M**2)
+    if sigma is None or (isinstance(sigma, str) and sigma == "depth"):
+        s = camera_sigma(p)
     elif isinstance(sigma, str) and sigma == "uniform":
         s = np.full_like(p, 1e-3)
+    elif isinstance(sigma, str):
+        raise InputMismatch(f"sigma must be 'depth', 'uniform' or an array, got {sigma!r}")
     else:
         s = np.broadcast_to(np.asarray(sigma, dtype=np.float64).reshape(len(p), -1), p.shape).copy()
         if not np.all(np.isfinite(s) & (s > 0)):
@@ -70,22 +70,22 @@ def _leave_one_out(prob: Problem, idx: list[int], start: Fit) -> list[Fit]:
     return [prob.fit(members[members != i], start=warm_start(start))[0] for i in idx]
 
 
-def _clear_outliers(prob: Problem, fit: Fit, z_max: float, keep_min: int) -> tuple[list[int], Fit]:
+def _clear_outliers(prob: Problem, fit: Fit, alpha: float, keep_min: int) -> tuple[list[int], Fit]:
     """Clear outliers, worst first: both the sample's residual and its leave-one-out residual (from a
-    fit without it) are robust z-score outliers among the remaining samples."""
+    fit without it) are beyond the chi-square limit of the noise scale of the other samples."""
     outliers: list[int] = []
     while len(fit.samples) > keep_min:
-        inl = fit.samples
-        z = dg.robust_z(prob.whitened(fit)[inl])
-        k = int(np.argmax(z))
-        if z[k] <= z_max:
+        inl = np.array(fit.samples)
+        w = prob.whitened(fit)[inl]
+        k = int(np.argmax(w))
+        if dg.outlier_ratio(w[k : k + 1], np.delete(w, k), alpha)[0] <= 1.0:
             break
-        rest = [i for i in inl if i != inl[k]]
-        fit_rest = prob.fit(np.array(rest), start=warm_start(fit))[0]
+        rest = np.delete(inl, k)
+        fit_rest = prob.fit(rest, start=warm_start(fit))[0]
         w_rest = prob.whitened(fit_rest)
-        if dg.robust_z(np.append(w_rest[rest], w_rest[inl[k]]))[-1] <= z_max:
+        if dg.outlier_ratio(w_rest[inl[k : k + 1]], w_rest[rest], alpha)[0] <= 1.0:
             break
-        outliers.append(inl[k])
+        outliers.append(int(inl[k]))
         fit = fit_rest
     return outliers, fit
 
@@ -111,7 +111,7 @@ def calibrate(
     loss: str = "linear",
     loss_scale: float = 3.0,
     exclude_outliers: bool = True,
-    outlier_z: float = dg.OUTLIER_Z,
+    outlier_alpha: float = dg.OUTLIER_ALPHA,
     enforce_criterion: bool = True,
     leave_one_out: bool = True,
 ) -> Calibration:
@@ -120,11 +120,12 @@ def calibrate(
     p_cam: (n, 3) blob, camera optical frame, metres. T_base_flange: (n, 4, 4) flange poses in the
     base frame. guess: optional (4, 4) T_flange_cam start (never required: a closed-form linear
     solution starts the refinement). sigma: per-sample camera-frame noise, (n, 3) or (n,) metres,
-    "depth" (default: D435 model, depth noise ~ z^2, plus a 1 mm floor) or "uniform" (1 mm).
+    "depth" (default: D435 model, depth noise ~ z^2) or "uniform" (1 mm).
     loss: "linear", "huber" or "cauchy" (scale in sigma units).
 
-    Outliers are clear robust-statistics outliers (modified z-score of the residual and of the
-    leave-one-out residual above ``outlier_z``) and, when ``enforce_criterion`` and the fit fails
+    Outliers are clear robust-statistics outliers (the residual and the leave-one-out residual
+    both beyond the chi-square limit of the median-estimated noise scale, family-wise false-alarm
+    rate ``outlier_alpha``) and, when ``enforce_criterion`` and the fit fails
     the lab's 1 cm criterion, the fewest samples (at most a fifth) whose removal makes it pass.
     exclude_outliers: the returned fit leaves them out (the fit with every sample stays in
     ``with_all_samples``); otherwise it keeps them (``without_outliers`` holds the other fit).
@@ -138,7 +139,7 @@ def calibrate(
     n = len(p)
     everything = prob.fit(np.arange(n))[0]
     keep_min = max(MIN_SAMPLES + 2, (n + 1) // 2)
-    clear, cleaned = _clear_outliers(prob, everything, outlier_z, keep_min)
+    clear, cleaned = _clear_outliers(prob, everything, outlier_alpha, keep_min)
     crit: list[int] = []
     if enforce_criterion and not cleaned.passes and n >= MIN_SAMPLES + 3:
         crit, cleaned = _criterion_outliers(cleaned, prob, max(1, n // 5))
@@ -157,7 +158,7 @@ def calibrate(
         )
     verb = "excluded" if exclude_outliers else "kept (exclude_outliers=False)"
     for kind, group in (
-        ("clear outliers (robust z-score)", clear),
+        ("clear outliers (robust statistics)", clear),
         ("the cause of the failed lab criterion", crit),
     ):
         if group:

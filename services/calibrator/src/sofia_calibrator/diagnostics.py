@@ -11,8 +11,8 @@ from .errors import DegenerateMotion
 LAB_SPREAD_LIMIT_MM = 10.0
 MIN_ROTATION_DEG = 2.0
 WEAK_ROTATION_DEG = 10.0
-# Modified z-score above which a residual is a clear outlier (Iglewicz and Hoaglin use 3.5).
-OUTLIER_Z = 3.5
+# Family-wise probability of calling a sample of a clean set a clear outlier.
+OUTLIER_ALPHA = 0.001
 
 
 def map_to_base(T_base_flange: np.ndarray, T_flange_cam: np.ndarray, p_cam: np.ndarray) -> np.ndarray:
@@ -47,11 +47,18 @@ def std_from_covariance(R_flange_cam: np.ndarray, cov: np.ndarray) -> tuple[np.n
     return std_t, std_rot
 
 
-def robust_z(values: np.ndarray) -> np.ndarray:
-    """Modified z-scores (value - median) / (1.4826 MAD) of (n,) values (MAD floored)."""
-    med = np.median(values)
-    mad = 1.4826 * np.median(np.abs(values - med))
-    return np.asarray((values - med) / max(mad, 1e-3 * max(abs(med), 1e-12), 1e-12))
+def outlier_ratio(whitened: np.ndarray, reference: np.ndarray, alpha: float = OUTLIER_ALPHA) -> np.ndarray:
+    """How far (n,) whitened residual norms are above the clear-outlier threshold (> 1: outlier).
+
+    The noise scale is estimated robustly from ``reference`` (whitened norms of the samples the
+    fit trusts): median(r^2) / median(chi2_3). A residual is a clear outlier when r^2 / scale^2
+    exceeds the chi2_3 quantile at 1 - alpha / n (a family-wise false-alarm rate of ``alpha``).
+    """
+    from scipy.stats import chi2
+
+    scale2 = max(float(np.median(reference**2)) / float(chi2.ppf(0.5, 3)), 1e-300)
+    limit = float(chi2.ppf(1.0 - alpha / max(len(reference), 1), 3))
+    return np.asarray(whitened**2 / scale2 / limit)
 
 
 def check_motion(T_base_flange: np.ndarray) -> list[str]:

@@ -8,7 +8,7 @@ import numpy as np
 from sofia_schemas.transforms import matrix_to_quat_xyzw, rpy_from_matrix
 
 from . import diagnostics as dg
-from .solver import Solution, linear_init, refine
+from .solver import Solution, linear_init, refine, solve
 
 
 @dataclass
@@ -60,13 +60,14 @@ class Problem:
         p, T, s = self.p_cam[idx], self.T_base_flange[idx], self.sigma[idx]
         R_fl, t_fl = T[:, :3, :3], T[:, :3, 3]
         if start is not None:
-            R0, t0, pb0 = start.R, start.t, start.p_base
+            R0, t0 = start.R, start.t
+            sol = refine(p, R_fl, t_fl, s, R0, t0, start.p_base, self.loss, self.loss_scale)
         elif self.guess is not None:
             R0, t0 = self.guess[:3, :3], self.guess[:3, 3]
-            pb0 = dg.map_to_base(T, self.guess, p).mean(axis=0)
+            sol = solve(p, T, s, self.guess, self.loss, self.loss_scale)
         else:
-            R0, t0, pb0 = linear_init(p, R_fl, t_fl, 1.0 / np.mean(s, axis=1) ** 2)
-        sol = refine(p, R_fl, t_fl, s, R0, t0, pb0, self.loss, self.loss_scale)
+            R0, t0, _ = linear_init(p, R_fl, t_fl, 1.0 / np.mean(s, axis=1) ** 2)
+            sol = solve(p, T, s, None, self.loss, self.loss_scale)
         T0 = np.eye(4)
         T0[:3, :3], T0[:3, 3] = R0, t0
         return self._explain(idx, sol, T0), sol

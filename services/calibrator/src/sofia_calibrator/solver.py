@@ -18,6 +18,8 @@ import numpy as np
 from . import so3
 
 LOSSES = ("linear", "huber", "cauchy")
+# Below 5 samples the 15-unknown linear start is underdetermined; more starts are tried.
+MIN_LINEAR_SAMPLES = 5
 
 
 @dataclass
@@ -170,9 +172,38 @@ def solve(
     R_fl, t_fl = T_base_flange[:, :3, :3], T_base_flange[:, :3, 3]
     if sigma is None:
         sigma = np.ones_like(p_cam)
-    if T_flange_cam_guess is None:
-        R, t, p_base = linear_init(p_cam, R_fl, t_fl, 1.0 / np.mean(sigma, axis=1) ** 2)
-    else:
+    if T_flange_cam_guess is not None:
         R, t = T_flange_cam_guess[:3, :3], T_flange_cam_guess[:3, 3]
-        p_base = np.mean(np.einsum("nij,nj->ni", R_fl, p_cam @ R.T + t) + t_fl, axis=0)
-    return refine(p_cam, R_fl, t_fl, sigma, R, t, p_base, loss, loss_scale)
+        return refine(p_cam, R_fl, t_fl, sigma, R, t, start_target(p_cam, R_fl, t_fl, R, t), loss, loss_scale)
+    R, t, p_base = linear_init(p_cam, R_fl, t_fl, 1.0 / np.mean(sigma, axis=1) ** 2)
+    best = refine(p_cam, R_fl, t_fl, sigma, R, t, p_base, loss, loss_scale)
+    if len(p_cam) < MIN_LINEAR_SAMPLES:  # the linear system is underdetermined: add starts
+        for R0 in cube_rotations():
+            z = np.zeros(3)
+            sol = refine(
+                p_cam, R_fl, t_fl, sigma, R0, z, start_target(p_cam, R_fl, t_fl, R0, z), loss, loss_scale
+            )
+            if sol.cost < best.cost:
+                best = sol
+    return best
+
+
+def start_target(
+    p_cam: np.ndarray, R_base_flange: np.ndarray, t_base_flange: np.ndarray, R: np.ndarray, t: np.ndarray
+) -> np.ndarray:
+    """(3,) mean of the blob mapped into the base frame through (R, t) = T_flange_cam."""
+    return np.asarray(
+        np.mean(np.einsum("nij,nj->ni", R_base_flange, p_cam @ R.T + t) + t_base_flange, axis=0)
+    )
+
+
+def cube_rotations() -> np.ndarray:
+    """(24, 3, 3) the rotations of the cube: well-spread starting rotations."""
+    perms = [(0, 1, 2), (1, 2, 0), (2, 0, 1), (1, 0, 2), (0, 2, 1), (2, 1, 0)]
+    out = []
+    for perm in perms:
+        for signs in np.array(np.meshgrid([1, -1], [1, -1], [1, -1])).T.reshape(-1, 3):
+            M = np.eye(3)[list(perm)] * signs[:, None]
+            if np.linalg.det(M) > 0:
+                out.append(M)
+    return np.array(out)

@@ -109,7 +109,7 @@ def test_rotation_about_one_axis_only_is_refused_with_advice() -> None:
     pr = make_problem(8, np.random.default_rng(4))
     T = pr.T_base_flange.copy()
     T[:, :3, :3] = _rot_about("z", np.linspace(-40, 40, 8)) @ T[0, :3, :3]
-    with pytest.raises(DegenerateMotion, match="one axis.*another axis"):
+    with pytest.raises(DegenerateMotion, match=r"one axis.*another axis"):
         calibrate(pr.p_cam, T)
 
 
@@ -142,7 +142,7 @@ def test_malformed_inputs_are_clear_errors(mutate, match) -> None:  # type: igno
 
 def test_bad_guess_and_options_are_clear_errors() -> None:
     pr = make_problem(6, np.random.default_rng(1))
-    with pytest.raises(ValueError, match="guess .* not a rotation"):
+    with pytest.raises(ValueError, match=r"guess .* not a rotation"):
         calibrate(pr.p_cam, pr.T_base_flange, guess=np.diag([1.0, 2.0, 1.0, 1.0]))
     with pytest.raises(InputMismatch, match="loss must be one of"):
         calibrate(pr.p_cam, pr.T_base_flange, loss="l1")

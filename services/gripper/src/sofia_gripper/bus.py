@@ -1,0 +1,118 @@
+"""The serial bus to one MX-64 through the real ``dynamixel_sdk`` (PortHandler / PacketHandler).
+
+Every exchange checks the communication result and the status packet's error byte and raises a
+:class:`~sofia_gripper.errors.BusError` or :class:`~sofia_gripper.errors.ServoRefused` naming
+what failed. The state block is read with one Sync Read (Protocol 2.0) or Bulk Read (Protocol
+1.0) per call. Hardware-error bits of the status error byte (P2 alert bit, P1 overheat /
+overload / voltage) are not errors of the exchange: they are kept in ``last_status_error``.
+"""
+
+from __future__ import annotations
+
+import threading
+from collections.abc import Callable
+from typing import Any
+
+import serial
+from dynamixel_sdk import COMM_SUCCESS, PacketHandler, PortHandler
+
+from .control_table import ALERT_BIT_P2, HW_ERROR_MASK_P1, STATE_BLOCK, Protocol, decode_int, fields
+from .errors import CommFailed, LineLost, ServoRefused
+
+
+class DxlBus:
+    """One servo ``dxl_id`` on ``port`` at ``baud``, ``protocol`` 1 or 2. Thread-safe."""
+
+    def __init__(self, port: str, baud: int, protocol: Protocol, dxl_id: int) -> None:
+        self.port_name, self.baud, self.protocol, self.dxl_id = port, baud, protocol, dxl_id
+        self.table = fields(protocol)
+        self.ph = PacketHandler(float(protocol))
+        self.port: PortHandler | None = None
+        self.lock = threading.RLock()
+        self.last_status_error = 0
+
+    # --- line -------------------------------------------------------------
+    def open(self) -> None:
+        with self.lock:
+            self.close()
+            port = PortHandler(self.port_name)
+            try:
+                if not port.setBaudRate(self.baud):
+                    raise CommFailed(f"open {self.port_name!r}", f"baud rate {self.baud} not supported")
+            except (serial.SerialException, OSError) as e:
+                raise LineLost(self.port_name, e) from e
+            self.port = port
+
+    def close(self) -> None:
+        with self.lock:
+            if self.port is not None and self.port.is_open:
+                try:
+                    self.port.closePort()
+                except (serial.SerialException, OSError):
+                    pass
+            self.port = None
+
+    def _call(self, what: str, fn: Callable[..., Any], *args: Any) -> Any:
+        with self.lock:
+            if self.port is None:
+                raise LineLost(self.port_name, "port not open")
+            try:
+                return fn(self.port, *args)
+            except (serial.SerialException, OSError, TypeError) as e:
+                # TypeError: pyserial's read on a closed fd; the SDK leaves the port marked busy
+                self.port.is_using = False
+                raise LineLost(self.port_name, f"{what}: {e}") from e
+
+    def _check(self, what: str, result: int, error: int) -> None:
+        if result != COMM_SUCCESS:
+            raise CommFailed(what, self.ph.getTxRxResult(result))
+        hw = ALERT_BIT_P2 if self.protocol == 2 else HW_ERROR_MASK_P1
+        self.last_status_error = error & hw
+        if error & ~hw:
+            raise ServoRefused(what, self.ph.getRxPacketError(error & ~hw))
+
+    # --- exchanges --------------------------------------------------------
+    def ping(self) -> int:
+        """The servo's model number."""
+        model, result, error = self._call("ping", self.ph.ping, self.dxl_id)
+        self._check(f"ping id {self.dxl_id}", result, error)
+        return int(model)
+
+    def read(self, name: str) -> int:
+        f = self.table[name]
+        data, result, error = self._call(f"read {name}", self.ph.readTxRx, self.dxl_id, f.address, f.size)
+        self._check(f"read {name} (address {f.address})", result, error)
+        return decode_int(data, 0, f)
+
+    def write(self, name: str, value: int) -> None:
+        f = self.table[name]
+        raw = int(value) % (1 << (8 * f.size))
+        fn = {1: self.ph.write1ByteTxRx, 2: self.ph.write2ByteTxRx, 4: self.ph.write4ByteTxRx}[f.size]
+        result, error = self._call(f"write {name}", fn, self.dxl_id, f.address, raw)
+        self._check(f"write {name}={value} (address {f.address})", result, error)
+
+    def read_state(self) -> tuple[bytes, int]:
+        """The state block (Moving..Present Temperature, P2; Present Position..Current, P1) and the
+        status error byte, in one Sync Read (P2) or Bulk Read (P1)."""
+        start, length = STATE_BLOCK[self.protocol]
+
+        def exchange(port: PortHandler) -> tuple[list[int], int, int]:
+            if self.protocol == 2:
+                result = self.ph.syncReadTx(port, start, length, [self.dxl_id], 1, False)
+            else:
+                result = self.ph.bulkReadTx(port, [length, self.dxl_id, start], 3)
+            if result != COMM_SUCCESS:
+                port.is_using = False
+                return [], result, 0
+            data, result, error = self.ph.readRx(port, self.dxl_id, length)
+            return data, result, error
+
+        data, result, error = self._call("state read", exchange)
+        self._check("state read", result, error)
+        return bytes(data), error
+
+    def reboot(self) -> None:
+        if self.protocol == 1:
+            raise CommFailed("reboot", "Protocol 1.0 MX-64 firmware has no Reboot instruction")
+        result, error = self._call("reboot", self.ph.reboot, self.dxl_id)
+        self._check("reboot", result, error & ~ALERT_BIT_P2)

@@ -1,0 +1,183 @@
+"""Gripper commands: each returns a :class:`GripperResult` when done, failed or timed out.
+
+Bad arguments and impossible requests raise :class:`~sofia_gripper.errors.CommandError` (the
+service turns them into error replies); a command that starts and then fails returns
+``ok=False`` with the reason.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from typing import TYPE_CHECKING
+
+from sofia_schemas.messages import GripperCommand, GripperResult, GripperState
+
+from .errors import CommandError, GripperError, NotReady, OutOfRange
+
+if TYPE_CHECKING:
+    from .driver import Gripper
+
+log = logging.getLogger(__name__)
+GRASP_CURRENT_FRACTION = 0.7  # stalled with at least this share of the goal current = object held
+MOTION = {"open", "close", "move", "grasp", "release"}
+
+
+def execute(g: Gripper, cmd: GripperCommand) -> GripperResult:
+    """Run ``cmd`` on gripper ``g``."""
+    t0 = time.monotonic()
+    g.counters["commands"] += 1
+    if cmd.action == "state":
+        return _result(cmd, True, "done", g.state, t0)
+    if cmd.action == "stop":
+        g.abort.set()
+        _require_connected(g)
+        state = g.state
+        if state.position_ticks is not None:
+            g.bus.write("goal_position", state.position_ticks)
+        return _result(cmd, True, "done", g.next_state(0.5) or g.state, t0)
+    with g.command_lock:
+        g.abort.clear()
+        if cmd.action == "torque":
+            return _torque(g, cmd, t0)
+        if cmd.action == "reboot":
+            return _reboot(g, cmd, t0)
+        return _motion(g, cmd, t0)
+
+
+def _require_connected(g: Gripper) -> None:
+    if not g.connected:
+        raise NotReady(f"serial line down ({g.error})")
+
+
+def _torque(g: Gripper, cmd: GripperCommand, t0: float) -> GripperResult:
+    if cmd.enable is None:
+        raise CommandError("torque needs 'enable': true or false")
+    _require_connected(g)
+    if cmd.enable:
+        g.bus.write("goal_position", g.bus.read("present_position"))
+    g.bus.write("torque_enable", int(cmd.enable))
+    g.torque = cmd.enable
+    g.grasped = g.grasped and cmd.enable
+    return _result(cmd, True, "done", g.next_state(0.5) or g.state, t0)
+
+
+def _reboot(g: Gripper, cmd: GripperCommand, t0: float) -> GripperResult:
+    _require_connected(g)
+    g.bus.reboot()
+    deadline = t0 + cmd.timeout_s
+    while True:
+        try:
+            g.bus.ping()
+            break
+        except GripperError:
+            if time.monotonic() > deadline:
+                return _result(cmd, False, "timeout: servo did not answer after reboot", g.state, t0)
+            time.sleep(0.05)
+    g.grasped = False
+    g.configure()
+    state = g.next_state(0.5) or g.state
+    state = g.next_state(0.5) or state
+    if state.hardware_error:
+        return _result(cmd, False, f"hardware error persists after reboot: {state.hardware_error}", state, t0)
+    return _result(cmd, True, "done", state, t0)
+
+
+def _target(g: Gripper, cmd: GripperCommand) -> float:
+    """Goal in ticks; out-of-range requests are refused, tiny overshoots clamped."""
+    c = g.config
+    if cmd.action in ("open", "release"):
+        return c.open_ticks
+    if cmd.action in ("close", "grasp"):
+        return c.closed_ticks
+    if cmd.opening_mm is not None and cmd.position_ticks is not None:
+        raise CommandError("move takes opening_mm or position_ticks, not both")
+    if cmd.position_ticks is not None:
+        low, high = g.limits
+        if not low <= cmd.position_ticks <= high:
+            raise OutOfRange("move position", cmd.position_ticks, low, high, "ticks")
+        return cmd.position_ticks
+    if cmd.opening_mm is not None:
+        closed_mm, open_mm = float(g.kin.opening(c.closed_ticks)), float(g.kin.opening(c.open_ticks))
+        if not closed_mm - 0.5 <= cmd.opening_mm <= open_mm + 0.5:
+            raise OutOfRange("move opening", cmd.opening_mm, closed_mm, open_mm, "mm")
+        return float(g.kin.ticks(cmd.opening_mm))
+    raise CommandError("move needs opening_mm or position_ticks")
+
+
+def _current(g: Gripper, cmd: GripperCommand) -> float:
+    c = g.config
+    if cmd.action != "grasp":
+        if cmd.force_n is not None or cmd.current_ma is not None:
+            raise CommandError(f"{cmd.action} takes no force_n/current_ma (only grasp does)")
+        return c.move_current_ma
+    if cmd.force_n is not None and cmd.current_ma is not None:
+        raise CommandError("grasp takes force_n or current_ma, not both")
+    current = c.grasp_current_ma
+    if cmd.force_n is not None:
+        current = cmd.force_n / c.force_per_amp_n * 1000
+    elif cmd.current_ma is not None:
+        current = cmd.current_ma
+    if current > g.current_limit_ma:
+        max_force = g.current_limit_ma / 1000 * c.force_per_amp_n
+        raise OutOfRange("grasp current", current, 0, g.current_limit_ma, f"mA (force limit {max_force:g} N)")
+    return current
+
+
+def _motion(g: Gripper, cmd: GripperCommand, t0: float) -> GripperResult:
+    target, current = _target(g, cmd), _current(g, cmd)
+    _require_connected(g)
+    if g.hw_error:
+        raise NotReady(f"hardware error {g.hw_error}; send reboot")
+    if g.overheated:
+        raise NotReady(f"temperature above {g.config.max_temperature_c:g} C")
+    if not g.torque:
+        raise NotReady("torque is off; send torque with enable=true")
+    g.set_current(current)
+    g.set_speed(cmd.speed or 1.0)
+    goal = g.set_goal(target)
+    g.grasped = False
+    return _wait(g, cmd, goal, current, t0)
+
+
+def _wait(g: Gripper, cmd: GripperCommand, goal: int, current: float, t0: float) -> GripperResult:
+    c = g.config
+    deadline = t0 + cmd.timeout_s
+    still_since: float | None = None
+    while True:
+        state = g.next_state(0.5)
+        now = time.monotonic()
+        if g.abort.is_set():
+            return _result(cmd, False, "stopped by a stop command", g.state, t0)
+        if state is None or not state.connected:
+            return _result(cmd, False, f"serial line lost ({g.error})", g.state, t0)
+        if state.status == "error":
+            return _result(cmd, False, state.error or "error", state, t0)
+        if now > deadline:
+            g.bus.write("goal_position", state.position_ticks or goal)
+            return _result(cmd, False, f"timeout after {cmd.timeout_s:g} s", state, t0)
+        pos = state.position_ticks or 0
+        if abs(pos - goal) <= c.position_tolerance_ticks and not state.moving:
+            return _result(cmd, True, "done", state, t0, grasped=False if cmd.action == "grasp" else None)
+        if state.moving or abs(state.velocity_rad_s or 0.0) > 0.05:
+            still_since = None
+            continue
+        still_since = still_since or now
+        if now - still_since < c.stall_time_s or now - t0 < 2 * c.stall_time_s:
+            continue
+        squeezing = (state.current_ma or 0.0) >= GRASP_CURRENT_FRACTION * current
+        if cmd.action in ("grasp", "close") and squeezing:
+            g.grasped = True
+            return _result(cmd, True, "stalled", state, t0, grasped=True)
+        return _result(cmd, cmd.action != "grasp", "stalled", state, t0, grasped=False)
+
+
+def _result(
+    cmd: GripperCommand, ok: bool, reason: str, state: GripperState, t0: float, grasped: bool | None = None
+) -> GripperResult:
+    if not ok:
+        log.warning("gripper %s failed: %s", cmd.action, reason)
+    return GripperResult(
+        action=cmd.action, ok=ok, reason=reason, grasped=grasped, opening_mm=state.opening_mm,
+        duration_s=time.monotonic() - t0, state=state,
+    )  # fmt: skip

@@ -84,6 +84,7 @@ def router_config(path: Path) -> dict[str, Any]:
 class Package:
     root: Path
     extras: set[str]
+    broken: list[str] = field(default_factory=list)
 
     @functools.cached_property
     def project(self) -> dict[str, Any]:
@@ -99,8 +100,28 @@ class Package:
             reqs += self.project.get("optional-dependencies", {})[extra]
         return [Requirement(r) for r in reqs]
 
-    def commands(self) -> dict[str, str]:
+    def entry_points(self) -> dict[str, str]:
         return dict(self.project.get("entry-points", {}).get("sofia.commands", {}))
+
+    def register(self, sub: argparse._SubParsersAction) -> list[str]:  # type: ignore[type-arg]
+        """Add this package's subcommands to ``sub`` as ``sofia`` does: an entry point that does not
+        import is left out. Returns what was left out and why."""
+        broken = []
+        for name, value in self.entry_points().items():
+            try:
+                register = EntryPoint(name, value, "sofia.commands").load()
+            except ImportError as e:
+                broken.append(f"{self.name}: entry point {name} = {value!r} does not import: {e}")
+                continue
+            register(sub)
+        return broken
+
+    @functools.cached_property
+    def subcommands(self) -> set[str]:
+        """The ``sofia`` subcommands this package's entry points register."""
+        sub = argparse.ArgumentParser().add_subparsers()
+        self.broken = self.register(sub)
+        return set(sub.choices)
 
 
 @dataclass
@@ -202,15 +223,14 @@ def dependency_closure(image: Image) -> set[str]:
     return seen
 
 
-def image_parser(image: Image) -> argparse.ArgumentParser:
-    """The ``sofia`` parser as the image would build it: only its packages' entry points."""
+def image_parser(image: Image) -> tuple[argparse.ArgumentParser, list[str]]:
+    """The ``sofia`` parser as the image would build it, from its packages' entry points alone,
+    and the entry points it had to leave out."""
     parser = argparse.ArgumentParser(prog="sofia")
     parser.add_argument("--log-level", default="INFO")
     sub = parser.add_subparsers(dest="command", required=True)
-    for pkg in image.packages.values():
-        for name, value in pkg.commands().items():
-            EntryPoint(name, value, "sofia.commands").load()(sub)
-    return parser
+    broken = [e for pkg in image.packages.values() for e in pkg.register(sub)]
+    return parser, broken
 
 
 def dockerignored(path: str) -> bool:
@@ -369,8 +389,9 @@ def test_image_installs_exactly_the_packages_its_command_needs(name: str) -> Non
     command = argv(services()[name]["command"])
     assert command[0] == "sofia"
     assert any(p.project.get("scripts", {}).get("sofia") for p in image.packages.values())
-    owners = [p for p in image.packages.values() if command[1] in p.commands()]
-    assert owners, f"{name}: no package of {image.dockerfile.name} registers `sofia {command[1]}`"
+    owners = [p for p in image.packages.values() if command[1] in p.subcommands]
+    broken = "\n".join(e for p in image.packages.values() for e in p.broken)
+    assert owners, f"{name}: no package of {image.dockerfile.name} registers `sofia {command[1]}`\n{broken}"
     needed, todo = set(), [owners[0].name]
     while todo:  # the SofIA packages the command's package depends on must come from the repository
         pkg = image.packages.get(todo.pop())
@@ -381,22 +402,23 @@ def test_image_installs_exactly_the_packages_its_command_needs(name: str) -> Non
         f"{image.dockerfile.name} installs more than `sofia {command[1]}` needs"
     )
     health = health_argv(services()[name])
-    assert health[0] == "sofia" and any(health[1] in p.commands() for p in image.packages.values()), (
-        f"{name}: no package of {image.dockerfile.name} registers `sofia {health[1]}` (healthcheck)"
+    assert health[0] == "sofia" and any(health[1] in p.subcommands for p in image.packages.values()), (
+        f"{name}: no package of {image.dockerfile.name} registers `sofia {health[1]}` (healthcheck)\n{broken}"
     )
 
 
 @pytest.mark.parametrize("name", SOFIA_SERVICES)
 def test_command_and_healthcheck_parse_with_the_image_packages_alone(name: str) -> None:
-    parser = image_parser(image_of(name))
+    parser, broken = image_parser(image_of(name))
     for command in (argv(services()[name]["command"]), health_argv(services()[name])):
         err = io.StringIO()
         with contextlib.redirect_stderr(err):
             try:
                 args = parser.parse_args(command[1:])
             except SystemExit:
+                left_out = "\n".join(broken)
                 pytest.fail(
-                    f"{name}: {' '.join(command)} is rejected by the image's sofia:\n{err.getvalue()}"
+                    f"{name}: {' '.join(command)} is rejected by the image's sofia:\n{err.getvalue()}{left_out}"
                 )
         assert callable(args.func), f"{name}: {' '.join(command)} selects no command"
 

@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 import zenoh
 from sofia_schemas import Keys, zenoh_config
-from sofia_schemas.keys import TOPIC_BLOB, TOPIC_FLANGE_POSE, default_robot
+from sofia_schemas.keys import TOPIC_BLOB, TOPIC_CAMERA_POINTS, TOPIC_FLANGE_POSE, TOPIC_POINTS, default_robot
 from sofia_schemas.launcher import Launcher, ServiceSpec, sofia_executable
 from sofia_schemas.messages import CalibrationResult, Detection, GripperCommand, GripperResult, PickTarget
 from sofia_schemas.transforms import rotation_angle
@@ -146,7 +146,8 @@ def run_demo(out: Path, recordings: Path, n_scenes: int = 12, n_poses: int = 12,
             if not healthy:
                 return _finish(summary, t0)
             _detections(session, keys, scenes_mcap, robot, summary)
-            _calibration(session, keys, calib_mcap, robot, summary)
+            if _calibration(session, keys, calib_mcap, robot, summary):
+                _camera_frame(session, keys, scenes_mcap, robot, summary)
             _gripper(session, keys, summary)
         _plots(scenes_mcap, calib_mcap, out, robot, summary)
     finally:
@@ -175,7 +176,9 @@ def _detections(session: zenoh.Session, keys: Keys, scenes_mcap: Path, robot: st
     dets = Collector(session, keys.detections, Detection, show)
     time.sleep(1.0)
     say(f"replaying {scenes_mcap} on {keys.points} ...")
-    played = _sofia("replay", "play", str(scenes_mcap), "--robot", robot, env_robot=robot)
+    played = _sofia(
+        "replay", "play", str(scenes_mcap), "--topic", TOPIC_POINTS, "--robot", robot, env_robot=robot
+    )
     wait_until(lambda: len(dets) >= len(frames), 10)
     dets.close()
     picks.close()
@@ -202,7 +205,7 @@ def _detections(session: zenoh.Session, keys: Keys, scenes_mcap: Path, robot: st
         summary.add("detect query (latest cloud)", str(e), False)
 
 
-def _calibration(session: zenoh.Session, keys: Keys, calib_mcap: Path, robot: str, summary: Summary) -> None:
+def _calibration(session: zenoh.Session, keys: Keys, calib_mcap: Path, robot: str, summary: Summary) -> bool:
     truth = read_truth(calib_mcap) or {}
     results = Collector(session, keys.calibration_result, CalibrationResult)
     reset_ok = any(r.ok is not None for r in session.get(keys.calibrator_op("reset"), timeout=5))
@@ -210,7 +213,7 @@ def _calibration(session: zenoh.Session, keys: Keys, calib_mcap: Path, robot: st
         summary.add("calibrator reset", f"no reply on {keys.calibrator_op('reset')}", False)
     say(f"replaying {calib_mcap} (blob observations + flange poses) into the calibrator ...")
     played = _sofia("replay", "play", str(calib_mcap), "--rate", "4", "--robot", robot,
-                    "--topics", TOPIC_BLOB, TOPIC_FLANGE_POSE, env_robot=robot)  # fmt: skip
+                    "--topic", TOPIC_BLOB, "--topic", TOPIC_FLANGE_POSE, env_robot=robot)  # fmt: skip
     wait_until(
         lambda: len(results) > 0 and results.items[-1].n_samples >= len(truth.get("frames", [])) - 1, 15
     )
@@ -219,7 +222,7 @@ def _calibration(session: zenoh.Session, keys: Keys, calib_mcap: Path, robot: st
         res = ask(session, keys.calibrator_op("result"), CalibrationResult)
     except QueryError as e:
         summary.add("calibration", f"{e} (replay exit {played.returncode}: {played.stderr[-500:]})", False)
-        return
+        return False
     T_est, T_true = np.array(res.matrix), np.array(truth["T_flange_cam"])
     dt_mm = float(np.linalg.norm(T_est[:3, 3] - T_true[:3, 3]) * 1000)
     dr_deg = float(np.degrees(rotation_angle(T_est[:3, :3].T @ T_true[:3, :3])))
@@ -237,6 +240,31 @@ def _calibration(session: zenoh.Session, keys: Keys, calib_mcap: Path, robot: st
     ok = dt_mm < 3.0 and dr_deg < 0.5 and res.passes
     summary.add(
         "calibration vs truth", f"{res.n_samples} samples, error {dt_mm:.2f} mm / {dr_deg:.3f} deg", ok
+    )
+    return ok
+
+
+def _camera_frame(
+    session: zenoh.Session, keys: Keys, scenes_mcap: Path, robot: str, summary: Summary
+) -> None:
+    """Camera-frame clouds + flange poses, mapped to the base frame with the calibrated transform."""
+    truth = read_truth(scenes_mcap) or {}
+    frames = {int(f["stamp_ns"]): f for f in truth.get("frames", [])}
+    dets = Collector(session, keys.detections, Detection)
+    time.sleep(0.5)
+    say(f"replaying camera-frame clouds and flange poses of {scenes_mcap} ...")
+    args = ["--topic", TOPIC_CAMERA_POINTS, "--topic", TOPIC_FLANGE_POSE, "--robot", robot]
+    played = _sofia("replay", "play", str(scenes_mcap), *args, env_robot=robot)
+    wait_until(lambda: len(dets) >= len(frames), 10)
+    dets.close()
+    errors = [e for d in dets.items if (e := _match_error_mm(d, frames)[1]) is not None]
+    used = sorted({d.transform or "none" for d in dets.items})
+    ok = played.returncode == 0 and len(dets) >= len(frames) and bool(errors) and max(errors) < 10
+    worst = max(errors, default=float("nan"))
+    summary.add(
+        "camera frame -> base frame",
+        f"{len(dets)} detections using {', '.join(used)}; centre error max {worst:.1f} mm",
+        ok,
     )
 
 

@@ -34,3 +34,8 @@ class BadTruthError(RecordingError):
 class BadMappingError(RecordingError):
     def __init__(self, text: str, reason: str) -> None:
         super().__init__(f"topic mapping {text!r} is invalid: {reason}")
+
+
+class BadBagError(RecordingError):
+    def __init__(self, path: Path | str, reason: str) -> None:
+        super().__init__(f"{str(path)!r} is not a readable ROS 1 bag: {reason}")

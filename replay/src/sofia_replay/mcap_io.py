@@ -15,6 +15,7 @@ log times in integer nanoseconds, ``start_ns`` inclusive and ``end_ns`` exclusiv
 from __future__ import annotations
 
 import json
+import struct
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -34,6 +35,8 @@ from .errors import BadTruthError, NotAnMcapError, RecordingError, RecordingNotF
 
 TRUTH_METADATA = "sofia.truth"
 TRUTH_KEY = "json"
+# what the mcap package raises on a corrupt or truncated file
+MCAP_ERRORS = (McapError, ValueError, EOFError, struct.error)
 COMPRESSIONS = {"zstd": CompressionType.ZSTD, "lz4": CompressionType.LZ4, "none": CompressionType.NONE}
 
 
@@ -163,7 +166,7 @@ def _open(path: str | Path) -> tuple[IO[bytes], McapReader]:
     f = open(path, "rb")  # closed by the callers
     try:
         return f, make_reader(f)
-    except (McapError, ValueError, EOFError) as e:
+    except MCAP_ERRORS as e:
         f.close()
         raise NotAnMcapError(path, str(e) or type(e).__name__) from None
 
@@ -187,7 +190,7 @@ def iter_messages(
                     publish_time_ns=message.publish_time,
                     data=message.data,
                 )
-        except McapError as e:
+        except MCAP_ERRORS as e:
             raise NotAnMcapError(path, str(e)) from None
 
 
@@ -224,7 +227,7 @@ def read_metadata(path: str | Path) -> dict[str, dict[str, str]]:
     with f:
         try:
             return {m.name: dict(m.metadata) for m in reader.iter_metadata()}
-        except McapError as e:
+        except MCAP_ERRORS as e:
             raise NotAnMcapError(path, str(e)) from None
 
 
@@ -328,6 +331,6 @@ def summary(path: str | Path) -> RecordingSummary:
                 first = msg.log_time if first is None else min(first, msg.log_time)
                 out.end_ns = max(out.end_ns, msg.log_time)
             out.start_ns = first or 0
-        except McapError as e:
+        except MCAP_ERRORS as e:
             raise NotAnMcapError(path, str(e)) from None
     return out

@@ -31,6 +31,7 @@ import yaml
 import zenoh
 from packaging.requirements import Requirement
 from packaging.utils import canonicalize_name
+from sofia_schemas.keys import Keys
 from sofia_schemas.zenoh_config import resolve
 
 REPO = Path(__file__).resolve().parents[2]
@@ -333,6 +334,18 @@ def test_every_sofia_service_connects_to_the_router_by_tcp(name: str) -> None:
     assert settings["connect"] == [f"tcp/{ROUTER}:{port}"] and settings["multicast"] is False
     assert settings["mode"] == "client" and settings["listen"] == []
     assert service["depends_on"] == {ROUTER: {"condition": "service_healthy"}}
+
+
+@pytest.mark.parametrize("name", SOFIA_SERVICES)
+def test_healthcheck_asks_for_the_service_own_status(name: str) -> None:
+    service = services()[name]
+    status_of = argv(service["command"])[1]  # detector, calibrator, gripper, replay
+    key = Keys(interpolate(service["environment"]["SOFIA_ROBOT"])).status(status_of)
+    health = health_argv(service)
+    assert health in (
+        ["sofia", "health", status_of],
+        ["sofia", "echo", key, "--count", "1", "--timeout", health[-1]],
+    ), f"{name}: healthcheck {health} does not ask for {key}"
 
 
 def test_profiles_keep_the_optional_services_off_by_default() -> None:

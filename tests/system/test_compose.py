@@ -9,7 +9,6 @@ nothing but those entry points. The Zenoh router configs are loaded by the real 
 
 from __future__ import annotations
 
-import argparse
 import copy
 import fnmatch
 import functools
@@ -21,7 +20,7 @@ import subprocess
 import sys
 import tomllib
 from dataclasses import dataclass, field
-from importlib.metadata import EntryPoint, PackageNotFoundError, distribution, packages_distributions
+from importlib.metadata import PackageNotFoundError, distribution, packages_distributions
 from pathlib import Path
 from typing import Any
 
@@ -85,7 +84,6 @@ def router_config(path: Path) -> dict[str, Any]:
 class Package:
     root: Path
     extras: set[str]
-    broken: list[str] = field(default_factory=list)
 
     @functools.cached_property
     def project(self) -> dict[str, Any]:
@@ -103,26 +101,6 @@ class Package:
 
     def entry_points(self) -> dict[str, str]:
         return dict(self.project.get("entry-points", {}).get("sofia.commands", {}))
-
-    def register(self, sub: argparse._SubParsersAction) -> list[str]:  # type: ignore[type-arg]
-        """Add this package's subcommands to ``sub`` as ``sofia`` does: an entry point that does not
-        import is left out. Returns what was left out and why."""
-        broken = []
-        for name, value in self.entry_points().items():
-            try:
-                register = EntryPoint(name, value, "sofia.commands").load()
-            except ImportError as e:
-                broken.append(f"{self.name}: entry point {name} = {value!r} does not import: {e}")
-                continue
-            register(sub)
-        return broken
-
-    @functools.cached_property
-    def subcommands(self) -> set[str]:
-        """The ``sofia`` subcommands this package's entry points register."""
-        sub = argparse.ArgumentParser().add_subparsers()
-        self.broken = self.register(sub)
-        return set(sub.choices)
 
 
 @dataclass
@@ -224,7 +202,9 @@ def dependency_closure(image: Image) -> set[str]:
     return seen
 
 
-# Runs in a fresh interpreter: modules of distributions the image would not have cannot be imported.
+# Runs in a fresh interpreter where modules of distributions the image lacks cannot be imported:
+# builds `sofia`'s parser from the image's entry points as cli.py does, prints which package
+# registered which subcommands, then parses each command (exit 2 and the usage error if one fails).
 _PROBE = """
 import argparse, importlib.abc, json, sys
 from importlib.metadata import EntryPoint
@@ -242,29 +222,43 @@ sys.meta_path.insert(0, Absent())
 parser = argparse.ArgumentParser(prog="sofia")
 parser.add_argument("--log-level")
 sub = parser.add_subparsers(dest="command", required=True)
-for name, value in entry_points:
+owners = {}
+for package, name, value in entry_points:
+    before = set(sub.choices)
     try:
         EntryPoint(name, value, "sofia.commands").load()(sub)
     except ImportError as e:
         print(f"entry point {name} = {value} left out: {e}", file=sys.stderr)
+    owners.setdefault(package, []).extend(sorted(set(sub.choices) - before))
+print(json.dumps(owners), flush=True)
 for argv in commands:
     assert callable(parser.parse_args(argv).func), argv
 """
 
 
-def probe_in_image(image: Image, commands: list[list[str]]) -> subprocess.CompletedProcess[str]:
-    """Build ``sofia``'s parser from the image's entry points with only the image's distributions
-    importable, and parse ``commands`` (argv without ``sofia``) with it."""
+@dataclass
+class Probe:
+    returncode: int
+    owners: dict[str, list[str]]  # package -> the subcommands its entry points registered
+    stderr: str
+
+
+def probe_in_image(image: Image, commands: list[list[str]]) -> Probe:
+    """Run :data:`_PROBE` for ``image`` with ``commands`` (argv without ``sofia``)."""
     closure = dependency_closure(image)
     absent = [
-        m
-        for m, dists in packages_distributions().items()
-        if not {canonicalize_name(d) for d in dists} & closure
+        m for m, ds in packages_distributions().items() if not {canonicalize_name(d) for d in ds} & closure
     ]
-    entry_points = [ep for p in image.packages.values() for ep in p.entry_points().items()]
+    entry_points = [(p.name, *ep) for p in image.packages.values() for ep in p.entry_points().items()]
     arg = json.dumps([absent, entry_points, commands])
-    return subprocess.run(
-        [sys.executable, "-c", _PROBE, arg], capture_output=True, text=True, timeout=120, cwd=REPO
+    run = subprocess.run([sys.executable, "-c", _PROBE, arg], capture_output=True, text=True, timeout=120)
+    return Probe(run.returncode, json.loads(run.stdout.splitlines()[0]), run.stderr)
+
+
+@functools.cache
+def probe_service(name: str) -> Probe:
+    return probe_in_image(
+        image_of(name), [argv(services()[name]["command"])[1:], health_argv(services()[name])[1:]]
     )
 
 
@@ -432,42 +426,38 @@ def test_dockerfile_base_user_and_copies(name: str) -> None:
 
 @pytest.mark.parametrize("name", SOFIA_SERVICES)
 def test_image_installs_exactly_the_packages_its_command_needs(name: str) -> None:
-    image = image_of(name)
-    command = argv(services()[name]["command"])
-    assert command[0] == "sofia"
+    image, probe = image_of(name), probe_service(name)
+    command, health = argv(services()[name]["command"]), health_argv(services()[name])
+    assert command[0] == health[0] == "sofia"
     assert any(p.project.get("scripts", {}).get("sofia") for p in image.packages.values())
-    owners = [p for p in image.packages.values() if command[1] in p.subcommands]
-    broken = "\n".join(e for p in image.packages.values() for e in p.broken)
-    assert owners, f"{name}: no package of {image.dockerfile.name} registers `sofia {command[1]}`\n{broken}"
-    needed, todo = set(), [owners[0].name]
+    for sub in (command[1], health[1]):
+        assert any(sub in subs for subs in probe.owners.values()), (
+            f"{name}: no package of {image.dockerfile.name} registers `sofia {sub}`\n{probe.stderr}"
+        )
+    owner = next(p for p, subs in probe.owners.items() if command[1] in subs)
+    needed, todo = set(), [owner]
     while todo:  # the SofIA packages the command's package depends on must come from the repository
         pkg = image.packages.get(todo.pop())
-        assert pkg is not None, f"{image.dockerfile.name} lacks a SofIA dependency of {owners[0].name}"
+        assert pkg is not None, f"{image.dockerfile.name} lacks a SofIA dependency of {owner}"
         needed.add(pkg.name)
         todo += [canonicalize_name(r.name) for r in pkg.requirements() if r.name.startswith("sofia-")]
     assert set(image.packages) == needed, (
         f"{image.dockerfile.name} installs more than `sofia {command[1]}` needs"
     )
-    health = health_argv(services()[name])
-    assert health[0] == "sofia" and any(health[1] in p.subcommands for p in image.packages.values()), (
-        f"{name}: no package of {image.dockerfile.name} registers `sofia {health[1]}` (healthcheck)\n{broken}"
-    )
 
 
 @pytest.mark.parametrize("name", SOFIA_SERVICES)
 def test_command_and_healthcheck_parse_with_only_what_the_image_installs(name: str) -> None:
-    commands = [argv(services()[name]["command"])[1:], health_argv(services()[name])[1:]]
-    run = probe_in_image(image_of(name), commands)
-    assert run.returncode == 0, (
-        f"{name}: {commands} fail in {services()[name]['build']['dockerfile']}:\n{run.stderr}"
-    )
+    probe = probe_service(name)
+    assert probe.returncode == 0, f"{name}: command or healthcheck fails in its image:\n{probe.stderr}"
 
 
 def test_the_probe_fails_without_the_needed_package() -> None:
     image = image_of("gripper")
     del image.packages["sofia-gripper"]  # as if the Dockerfile forgot it
-    run = probe_in_image(image, [["health", "gripper"], ["gripper", "serve", "--emulate"]])
-    assert run.returncode == 2 and "invalid choice: 'gripper'" in run.stderr, run.stderr
+    probe = probe_in_image(image, [["health", "gripper"], ["gripper", "serve", "--emulate"]])
+    assert "health" in probe.owners["sofia-schemas"] and "sofia-gripper" not in probe.owners
+    assert probe.returncode == 2 and "invalid choice: 'gripper'" in probe.stderr, probe.stderr
 
 
 def test_gripper_image_pulls_no_open3d_while_the_detector_needs_it() -> None:

@@ -178,13 +178,13 @@ def image_of(name: str) -> Image:
 
 def dependency_closure(image: Image) -> set[str]:
     """Every distribution name pip installs in ``image``, from the pyprojects and installed metadata."""
-    todo = [(n, p.extras) for n, p in image.packages.items()]
-    seen: set[str] = set()
+    todo = [(n, frozenset(p.extras)) for n, p in image.packages.items()]
+    seen: set[tuple[str, frozenset[str]]] = set()
     while todo:
         name, extras = todo.pop()
-        if name in seen and not extras:
+        if (name, extras) in seen:
             continue
-        seen.add(name)
+        seen.add((name, extras))
         if name in image.packages:
             reqs = image.packages[name].requirements()
         else:
@@ -197,9 +197,8 @@ def dependency_closure(image: Image) -> set[str]:
                 for r in reqs
                 if r.marker is None or any(r.marker.evaluate({"extra": e}) for e in extras | {""})
             ]
-        for r in reqs:
-            todo.append((canonicalize_name(r.name), set(r.extras)))
-    return seen
+        todo += [(canonicalize_name(r.name), frozenset(r.extras)) for r in reqs]
+    return {name for name, _ in seen}
 
 
 # Runs in a fresh interpreter where modules of distributions the image lacks cannot be imported:
@@ -252,7 +251,8 @@ def probe_in_image(image: Image, commands: list[list[str]]) -> Probe:
     entry_points = [(p.name, *ep) for p in image.packages.values() for ep in p.entry_points().items()]
     arg = json.dumps([absent, entry_points, commands])
     run = subprocess.run([sys.executable, "-c", _PROBE, arg], capture_output=True, text=True, timeout=120)
-    return Probe(run.returncode, json.loads(run.stdout.splitlines()[0]), run.stderr)
+    lines = run.stdout.splitlines()
+    return Probe(run.returncode, json.loads(lines[0]) if lines else {}, run.stderr)
 
 
 @functools.cache

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import subprocess
 import sys
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -14,7 +15,7 @@ from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 from sofia_replay import mcap_io
 from sofia_replay.convert import convert_bag, parse_topic_map
 from sofia_replay.errors import BadBagError, BadMappingError, RecordingNotFoundError
-from sofia_schemas import pointcloud
+from sofia_schemas import Keys, pointcloud, rosmsg
 from sofia_schemas.keys import TOPIC_FLANGE_POSE, TOPIC_POINTS
 
 SOFIA = str(Path(sys.executable).with_name("sofia"))
@@ -169,3 +170,26 @@ def test_errors(tmp_path: Path) -> None:
         [SOFIA, "replay", "convert", str(junk), str(tmp_path / "o.mcap")], capture_output=True, text=True
     )
     assert run.returncode == 2 and "is not a readable ROS 1 bag" in run.stderr
+
+
+def test_bag_converts_replays_and_arrives_intact(
+    bag: Path, tmp_path: Path, sofia_proc: Callable[..., Any], collect: Callable[[str], Any], robot_id: str
+) -> None:
+    """The whole chain, each step its own process: ROS 1 bag -> MCAP -> Zenoh -> this subscriber."""
+    out = tmp_path / "chain.mcap"
+    conv = sofia_proc("replay", "convert", str(bag), str(out), "--topic", f"/tool_pose={TOPIC_FLANGE_POSE}")
+    assert conv.popen.wait(60) == 0, conv.log()
+    keys = Keys(robot_id)
+    got = collect(keys.all)
+    play = sofia_proc("replay", "play", str(out), "--rate", "5", "--wait-subscribers", "20")
+    assert play.popen.wait(60) == 0, play.log()
+    clouds = got.wait_for(keys.points, 6, timeout=10)
+    assert [c.payload for c in clouds] == [
+        bytes(ros2.serialize_cdr(_cloud_msg(ros2, i), PC2)) for i in range(6)
+    ]
+    poses = got.wait_for(keys.flange_pose, 6, timeout=10)
+    assert [rosmsg.decode_flange_pose(p.payload).translation[1] for p in poses] == [
+        0.01 * i for i in range(6)
+    ]
+    assert len(got.wait_for(f"sofia/{robot_id}/replay/tf", 1, timeout=5)) == 1
+    assert len(got.wait_for(f"sofia/{robot_id}/replay/goal", 1, timeout=5)) == 1

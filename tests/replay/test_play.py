@@ -1,0 +1,192 @@
+"""`sofia replay play` as a separate process; this test subscribes over Zenoh and checks every byte."""
+
+from __future__ import annotations
+
+import json
+import time
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+from rosbags.typesys import Stores, get_typestore
+from sofia_replay.mcap_io import McapWriter
+from sofia_replay.player import default_key, encoding_of
+from sofia_schemas import BlobObservation, FlangePose, Keys, ServiceStatus, pointcloud
+from sofia_schemas.keys import (
+    ENCODING_CDR_POINT,
+    ENCODING_CDR_POINTCLOUD2,
+    ENCODING_CDR_TRANSFORM,
+    TOPIC_BLOB,
+    TOPIC_CAMERA_POINTS,
+    TOPIC_FLANGE_POSE,
+    TOPIC_POINTS,
+)
+
+T0 = 1_700_000_000_000_000_000
+PERIOD = 50_000_000  # 20 Hz
+N = 8
+POSE = "geometry_msgs/msg/PoseStamped"
+
+
+def _extra_pose(i: int) -> bytes:
+    ts = get_typestore(Stores.ROS2_HUMBLE)
+    T = ts.types
+    msg = T[POSE](
+        header=T["std_msgs/msg/Header"](
+            stamp=T["builtin_interfaces/msg/Time"](sec=i, nanosec=0), frame_id="map"
+        ),
+        pose=T["geometry_msgs/msg/Pose"](
+            position=T["geometry_msgs/msg/Point"](x=float(i), y=0.0, z=0.0),
+            orientation=T["geometry_msgs/msg/Quaternion"](x=0.0, y=0.0, z=0.0, w=1.0),
+        ),
+    )
+    return bytes(ts.serialize_cdr(msg, POSE))
+
+
+@pytest.fixture(scope="module")
+def recording(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, dict[str, list[bytes]]]:
+    """A synthetic recording and, per topic, the bytes written (in order)."""
+    path = tmp_path_factory.mktemp("rec") / "synthetic.mcap"
+    written: dict[str, list[bytes]] = {}
+    rng = np.random.default_rng(7)
+    with McapWriter(path) as w:
+        for i in range(N):
+            t = T0 + i * PERIOD
+            p = rng.normal(size=(48, 64, 3)).astype(np.float32)
+            p[0, :5] = np.nan
+            rgb = rng.integers(0, 256, (48, 64, 3), dtype=np.uint8)
+            cloud = bytes(pointcloud.encode_points(p, stamp_ns=t, frame_id="panda_link0", rgb=rgb))
+            cam = bytes(pointcloud.encode_points(p.reshape(-1, 3)[:500], stamp_ns=t, frame_id="cam"))
+            pose = FlangePose(stamp_ns=t, translation=(0.4, 0.0, 0.5 + 0.01 * i), rotation_xyzw=(1, 0, 0, 0))
+            w.write_cloud(TOPIC_POINTS, cloud, t)
+            w.write_cloud(TOPIC_CAMERA_POINTS, cam, t + 1)
+            w.write_flange_pose(TOPIC_FLANGE_POSE, pose, t + 2)
+            w.write_raw("/extra/goal", POSE, _extra_pose(i), t + 3)
+            written.setdefault(TOPIC_POINTS, []).append(cloud)
+            written.setdefault(TOPIC_CAMERA_POINTS, []).append(cam)
+            written.setdefault("/extra/goal", []).append(_extra_pose(i))
+        blob = BlobObservation(stamp_ns=T0 + PERIOD, position=(0.0, 0.01, 0.4))
+        w.write_blob(TOPIC_BLOB, blob, T0 + PERIOD + 4)
+    from sofia_replay.mcap_io import iter_messages
+
+    for m in iter_messages(path, [TOPIC_FLANGE_POSE, TOPIC_BLOB]):
+        written.setdefault(m.topic, []).append(m.data)
+    return path, written
+
+
+def _statuses(samples: list[Any]) -> list[ServiceStatus]:
+    return [ServiceStatus.model_validate_json(s.payload) for s in samples]
+
+
+def test_default_key_map() -> None:
+    k = Keys("r1")
+    assert default_key(k, TOPIC_POINTS) == "sofia/r1/points"
+    assert default_key(k, "/extra//goal/") == "sofia/r1/replay/extra/goal"
+    assert encoding_of("sensor_msgs/msg/PointCloud2") == ENCODING_CDR_POINTCLOUD2
+    assert encoding_of(POSE) == "application/cdr;geometry_msgs/msg/PoseStamped"
+
+
+def test_every_message_received_intact(
+    recording: tuple[Path, dict[str, list[bytes]]], sofia_proc: Callable[..., Any],
+    collect: Callable[[str], Any], robot_id: str,
+) -> None:  # fmt: skip
+    path, written = recording
+    keys = Keys(robot_id)
+    got = collect(keys.all)
+    proc = sofia_proc("replay", "play", str(path), "--fast", "--wait-subscribers", "20")
+    assert proc.popen.wait(60) == 0, proc.log()
+
+    expected = {
+        keys.points: (written[TOPIC_POINTS], ENCODING_CDR_POINTCLOUD2),
+        keys.camera_points: (written[TOPIC_CAMERA_POINTS], ENCODING_CDR_POINTCLOUD2),
+        keys.flange_pose: (written[TOPIC_FLANGE_POSE], ENCODING_CDR_TRANSFORM),
+        keys.blob: (written[TOPIC_BLOB], ENCODING_CDR_POINT),
+        f"sofia/{robot_id}/replay/extra/goal": (written["/extra/goal"], "application/cdr;" + POSE),
+    }
+    for key, (payloads, encoding) in expected.items():
+        received = got.wait_for(key, len(payloads), timeout=10)
+        assert [r.payload for r in received] == payloads, key  # byte-identical, in order
+        assert {r.encoding for r in received} == {encoding}
+    cloud = pointcloud.decode(got.on(keys.points)[3].payload)
+    assert cloud.shape == (48, 64) and cloud.stamp_ns == T0 + 3 * PERIOD
+
+    time.sleep(0.2)
+    statuses = _statuses(got.on(keys.status("replay")))
+    assert statuses[0].state == "starting" and statuses[-1].state == "stopping"
+    final = statuses[-1].counters
+    assert final["published"] == 4 * N + 1
+    assert final[f"topic:{TOPIC_POINTS}"] == N and final[f"topic:{TOPIC_BLOB}"] == 1
+    assert final["bytes"] == sum(len(p) for ps in written.values() for p in ps)
+    assert "replay done" in proc.log()
+
+
+def test_recorded_rate_window_and_mapping(
+    recording: tuple[Path, dict[str, list[bytes]]], sofia_proc: Callable[..., Any],
+    collect: Callable[[str], Any], robot_id: str,
+) -> None:  # fmt: skip
+    """--rate 0.5 over clouds 2..5 of the recording (--start/--end), remapped to another key."""
+    path, written = recording
+    key = f"sofia/{robot_id}/custom/cloud"
+    got = collect(f"sofia/{robot_id}/**")
+    proc = sofia_proc(
+        "replay", "play", str(path), "--rate", "0.5", "--start", "0.1", "--end", "0.26",
+        "--topic", TOPIC_POINTS, "--map", f"{TOPIC_POINTS}={key}", "--wait-subscribers", "20",
+    )  # fmt: skip
+    assert proc.popen.wait(60) == 0, proc.log()
+    received = got.wait_for(key, 4, timeout=5)
+    assert [r.payload for r in received] == written[TOPIC_POINTS][2:6]
+    assert got.on(Keys(robot_id).points) == [] and got.on(Keys(robot_id).flange_pose) == []
+    # 3 periods of 50 ms at half speed: at least 0.3 s between first and last (scheduling only delays)
+    span = received[-1].t - received[0].t
+    assert 0.27 <= span < 5.0, span
+
+
+def test_loop_until_stopped(
+    recording: tuple[Path, dict[str, list[bytes]]], sofia_proc: Callable[..., Any],
+    collect: Callable[[str], Any], robot_id: str,
+) -> None:  # fmt: skip
+    path, written = recording
+    keys = Keys(robot_id)
+    got = collect(keys.all)
+    proc = sofia_proc("replay", "play", str(path), "--rate", "4", "--loop", "--topic", TOPIC_FLANGE_POSE,
+                      "--wait-subscribers", "20")  # fmt: skip
+    received = got.wait_for(keys.flange_pose, 2 * N + 1, timeout=30)
+    assert proc.stop() == 0
+    assert len(received) >= 2 * N + 1
+    assert [r.payload for r in received[: 2 * N]] == written[TOPIC_FLANGE_POSE] * 2
+    assert "stopped" in proc.log()
+    time.sleep(0.2)
+    last = _statuses(got.on(keys.status("replay")))[-1]
+    assert last.state == "stopping" and last.counters["loops"] >= 2
+
+
+@pytest.mark.parametrize(
+    "args,message",
+    [
+        (["missing.mcap"], "recording 'missing.mcap' does not exist"),
+        (["REC", "--rate", "0"], "--rate must be a positive finite multiplier, got 0.0"),
+        (["REC", "--map", "/pc_glob=sofia/*/points"], "must not contain wildcards"),
+        (["REC", "--map", "/pc_glob"], "expected SOURCE=TARGET"),
+        (["REC", "--start", "0.3", "--end", "0.1"], "--end 0.1 s must be after --start 0.3 s"),
+    ],
+)
+def test_bad_arguments(
+    recording: tuple[Path, dict[str, list[bytes]]],
+    sofia_proc: Callable[..., Any],
+    args: list[str],
+    message: str,
+) -> None:
+    args = [str(recording[0]) if a == "REC" else a for a in args]
+    proc = sofia_proc("replay", "play", *args)
+    assert proc.popen.wait(30) == 2
+    assert message in proc.log()
+
+
+def test_info_json(recording: tuple[Path, dict[str, list[bytes]]], sofia_proc: Callable[..., Any]) -> None:
+    proc = sofia_proc("replay", "info", str(recording[0]), "--json")
+    assert proc.popen.wait(30) == 0
+    info = json.loads(proc.log())
+    assert info["n_messages"] == 4 * N + 1
+    assert info["topics"]["/extra/goal"] == {"schema": POSE, "encoding": "cdr", "count": N}

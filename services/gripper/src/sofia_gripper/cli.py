@@ -1,0 +1,145 @@
+"""``sofia gripper ...``: the service, the emulator, calibration, and commands for people."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+from sofia_schemas.keys import ENCODING_JSON, Keys, default_robot
+from sofia_schemas.messages import GripperCommand
+from sofia_schemas.service import StopFlag
+from sofia_schemas.zenoh_config import ZenohOptions, add_zenoh_args, zenoh_config
+
+from .config import GripperConfig, load_config
+
+ACTIONS = ("open", "close", "grasp", "move", "release", "stop", "torque", "reboot", "state")
+
+
+def _add_servo_args(p: argparse.ArgumentParser) -> None:
+    g = p.add_argument_group("servo")
+    g.add_argument("--config", type=Path, help="gripper YAML config (see `sofia gripper calibrate`)")
+    g.add_argument("--port", help="serial port, e.g. /dev/ttyUSB0")
+    g.add_argument("--baud", type=int, help="baud rate (default 57600)")
+    g.add_argument("--id", type=int, dest="dxl_id", help="Dynamixel id (default 1)")
+    g.add_argument("--protocol", type=float, choices=(1.0, 2.0), help="Dynamixel protocol (default 2.0)")
+
+
+def gripper_config(args: argparse.Namespace) -> GripperConfig:
+    """The config file (if any) overridden by --port/--baud/--id/--protocol."""
+    base = load_config(args.config) if args.config else GripperConfig()
+    update: dict[str, Any] = {k: getattr(args, k) for k in ("port", "baud", "dxl_id") if getattr(args, k)}
+    if args.protocol:
+        update["protocol"] = int(args.protocol)
+    return GripperConfig.model_validate({**base.model_dump(), **update})
+
+
+def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+    p = sub.add_parser("gripper", help="MX-64 gripper: service, emulator, calibration, commands")
+    gs = p.add_subparsers(dest="gripper_cmd", required=True, metavar="ACTION")
+
+    for name in ("serve", "run"):
+        s = gs.add_parser(name, help="run the gripper service")
+        _add_servo_args(s)
+        add_zenoh_args(s)
+        s.add_argument("--emulate", action="store_true", help="run against an in-process MX-64 emulator")
+        s.add_argument("--object-width", type=float, metavar="MM", help="emulated object width (--emulate)")
+        s.set_defaults(func=_serve)
+
+    e = gs.add_parser("emulate", help="run an MX-64 emulator on a pseudo-terminal (prints the tty path)")
+    e.add_argument("--object-width", type=float, metavar="MM", help="object between the fingers")
+    e.add_argument("--protocol", type=float, choices=(1.0, 2.0), default=2.0)
+    e.add_argument("--baud", type=int, default=57600)
+    e.add_argument("--id", type=int, dest="dxl_id", default=1)
+    e.add_argument("--link", type=Path, help="also make this symlink to the tty (stable path)")
+    e.set_defaults(func=_emulate)
+
+    c = gs.add_parser("calibrate", help="record the open and closed positions into a config file")
+    _add_servo_args(c)
+    c.add_argument("--out", type=Path, required=True, help="config file to write")
+    c.set_defaults(func=_calibrate)
+
+    for action in ACTIONS:
+        a = gs.add_parser(action, help=f"send a {action} command to the gripper service")
+        add_zenoh_args(a)
+        a.add_argument("--robot", default=None, help="robot id (default $SOFIA_ROBOT or panda)")
+        a.add_argument("--timeout", type=float, default=10.0, help="command timeout, s")
+        if action == "grasp":
+            a.add_argument("--force", type=float, metavar="N", help="grasp force limit")
+            a.add_argument("--current", type=float, metavar="MA", help="grasp current limit")
+        if action in ("grasp", "move", "open", "close", "release"):
+            a.add_argument("--speed", type=float, help="fraction of the max velocity, (0, 1]")
+        if action == "move":
+            a.add_argument("--opening", type=float, metavar="MM", help="finger opening")
+            a.add_argument("--ticks", type=int, help="motor position instead of an opening")
+        if action == "torque":
+            a.add_argument("enable", choices=("on", "off"))
+        a.set_defaults(func=_command, action=action)
+
+
+def _serve(args: argparse.Namespace) -> int:
+    from .service import ServiceConfig, main
+
+    conf = ServiceConfig(
+        gripper=gripper_config(args), robot=default_robot(), zenoh=ZenohOptions.from_args(args),
+        emulate=args.emulate, object_width_mm=args.object_width,
+    )  # fmt: skip
+    return main(conf)
+
+
+def _emulate(args: argparse.Namespace) -> int:
+    from .emulator import Emulator
+
+    emu = Emulator(int(args.protocol), args.baud, args.dxl_id, args.object_width, link_path=args.link)  # type: ignore[arg-type]
+    stop = StopFlag()
+    print(emu.start(), flush=True)
+    stop.wait()
+    emu.stop()
+    return 0
+
+
+def _calibrate(args: argparse.Namespace) -> int:
+    from .calibrate import calibrate
+
+    calibrate(gripper_config(args), args.out)
+    return 0
+
+
+def build_command(args: argparse.Namespace) -> GripperCommand:
+    fields: dict[str, Any] = {"action": args.action, "timeout_s": args.timeout}
+    for arg, field in (("force", "force_n"), ("current", "current_ma"), ("speed", "speed"),
+                       ("opening", "opening_mm"), ("ticks", "position_ticks")):  # fmt: skip
+        if getattr(args, arg, None) is not None:
+            fields[field] = getattr(args, arg)
+    if args.action == "torque":
+        fields["enable"] = args.enable == "on"
+    return GripperCommand.model_validate(fields)
+
+
+def _command(args: argparse.Namespace) -> int:
+    import zenoh
+
+    cmd = build_command(args)
+    key = Keys(args.robot or default_robot()).gripper_command
+    with zenoh.open(zenoh_config(ZenohOptions.from_args(args))) as session:
+        deadline = time.monotonic() + 3.0
+        while True:  # discovery may take a moment right after start-up
+            replies = list(session.get(key, payload=cmd.to_json_bytes(), encoding=ENCODING_JSON,
+                                       timeout=cmd.timeout_s + 5.0))  # fmt: skip
+            if replies or time.monotonic() > deadline:
+                break
+            time.sleep(0.2)
+    if not replies:
+        print(f"sofia gripper {args.action}: no gripper service answered on {key}", file=sys.stderr)
+        return 3
+    reply = replies[0]
+    if reply.ok is not None:
+        result = json.loads(reply.ok.payload.to_bytes())
+        print(json.dumps(result))
+        return 0 if result.get("ok") else 1
+    assert reply.err is not None
+    print(reply.err.payload.to_bytes().decode(errors="replace"), file=sys.stderr)
+    return 1

@@ -1,0 +1,147 @@
+"""The gripper service: commands in, results and state out, over Zenoh.
+
+- queryable ``Keys(robot).gripper_command``: JSON :class:`GripperCommand` -> JSON
+  :class:`GripperResult`; malformed or impossible commands get an error reply;
+- publisher ``Keys(robot).gripper_state``: JSON :class:`GripperState` every state cycle;
+- ``Keys(robot).status("gripper")``: :class:`ServiceStatus` every second, and queryable.
+
+The query callback only queues the query. A dispatcher thread parses it and answers ``stop`` and
+``state`` at once (so ``stop`` can interrupt a running grasp); motion commands run one at a time
+on the command thread.
+"""
+
+from __future__ import annotations
+
+import logging
+import queue
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Literal
+
+import zenoh
+from pydantic import ValidationError
+from sofia_schemas.errors import PayloadError
+from sofia_schemas.keys import ENCODING_JSON, Keys
+from sofia_schemas.messages import GripperCommand, GripperState, ServiceStatus, now_ns
+from sofia_schemas.service import StopFlag, reply_error, reply_json, run_worker
+from sofia_schemas.zenoh_config import ZenohOptions, zenoh_config
+
+from .config import GripperConfig
+from .driver import Gripper
+from .emulator import Emulator
+from .errors import GripperError
+
+log = logging.getLogger(__name__)
+IMMEDIATE = {"stop", "state"}
+
+
+@dataclass
+class ServiceConfig:
+    gripper: GripperConfig
+    robot: str
+    zenoh: ZenohOptions
+    emulate: bool = False
+    object_width_mm: float | None = None
+
+
+def parse_command(query: zenoh.Query) -> GripperCommand:
+    payload = query.payload.to_bytes() if query.payload is not None else b""
+    if not payload:
+        raise PayloadError("gripper command query has no payload: send a JSON GripperCommand")
+    try:
+        return GripperCommand.model_validate_json(payload)
+    except ValidationError as e:
+        raise PayloadError(f"gripper command {payload[:200]!r} is not a valid GripperCommand: {e}") from e
+
+
+class GripperService:
+    def __init__(self, gripper: Gripper) -> None:
+        self.gripper = gripper
+        self.inbox: queue.Queue[zenoh.Query | None] = queue.Queue()
+        self.work: queue.Queue[tuple[zenoh.Query, GripperCommand] | None] = queue.Queue()
+        self.errors = 0
+
+    def run_command(self, query: zenoh.Query, cmd: GripperCommand) -> None:
+        with query:  # leaving the block finalises the query: the caller's get() ends at once
+            try:
+                reply_json(query, self.gripper.execute(cmd))
+            except GripperError as e:
+                self.errors += 1
+                log.warning("gripper %s refused: %s", cmd.action, e)
+                reply_error(query, e)
+
+    def dispatch(self) -> None:
+        while (query := self.inbox.get()) is not None:
+            try:
+                cmd = parse_command(query)
+            except PayloadError as e:
+                self.errors += 1
+                log.warning("%s", e)
+                with query:
+                    reply_error(query, e)
+                continue
+            if cmd.action in IMMEDIATE:
+                self.run_command(query, cmd)
+            else:
+                self.work.put((query, cmd))
+        self.work.put(None)
+
+    def work_loop(self) -> None:
+        while (item := self.work.get()) is not None:
+            self.run_command(*item)
+
+    def status(self) -> ServiceStatus:
+        g = self.gripper
+        s = g.state
+        state: Literal["ok", "degraded", "error"] = "ok" if s.connected and not s.error else "degraded"
+        state = state if s.connected else "error"
+        counters = dict(g.counters, command_errors=self.errors)
+        return ServiceStatus(
+            service="gripper", stamp_ns=now_ns(), state=state, detail=s.error or "", counters=counters,
+            info={"port": g.config.port, "baud": g.config.baud, "id": g.config.dxl_id, "protocol": g.config.protocol},
+        )  # fmt: skip
+
+
+def main(config: ServiceConfig) -> int:
+    """Run the service until SIGINT/SIGTERM."""
+    stop = StopFlag()
+    keys = Keys(config.robot)
+    gconf, emulator, tmp = config.gripper, None, None
+    if config.emulate:
+        tmp = tempfile.TemporaryDirectory(prefix="sofia-gripper-")
+        emulator = Emulator(
+            gconf.protocol, gconf.baud, gconf.dxl_id, config.object_width_mm, gconf, Path(tmp.name) / "ttyDXL"
+        )
+        gconf = gconf.model_copy(update={"port": emulator.start()})
+    with zenoh.open(zenoh_config(config.zenoh)) as session:
+        state_pub = session.declare_publisher(keys.gripper_state)
+        status_pub = session.declare_publisher(keys.status("gripper"))
+
+        def publish_state(state: GripperState) -> None:
+            state_pub.put(state.to_json_bytes(), encoding=ENCODING_JSON)
+
+        gripper = Gripper(gconf, on_state=publish_state)
+        service = GripperService(gripper)
+        queryables = [
+            session.declare_queryable(keys.gripper_command, service.inbox.put),
+            session.declare_queryable(keys.status("gripper"), lambda q: reply_json(q, service.status())),
+        ]
+        gripper.start()
+        run_worker("gripper-dispatch", service.dispatch)
+        run_worker("gripper-commands", service.work_loop)
+        log.info(
+            "gripper service ready: commands on %s, state on %s", keys.gripper_command, keys.gripper_state
+        )
+        while not stop.wait(1.0):
+            status_pub.put(service.status().to_json_bytes(), encoding=ENCODING_JSON)
+        log.info("gripper service stopping")
+        service.inbox.put(None)
+        gripper.close(torque_off=False)  # keep holding; the bus watchdog stops motion
+        for q in queryables:
+            q.undeclare()
+    if emulator:
+        emulator.stop()
+    if tmp:
+        tmp.cleanup()
+    return 0

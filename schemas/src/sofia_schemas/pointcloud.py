@@ -364,7 +364,10 @@ def encode_points(
     out = bytearray(len(head) + n_data + 1)
     out[: len(head)] = head
     body = np.frombuffer(out, dtype=np.uint8, count=n_data, offset=len(head)).reshape(n, point_step)
-    body[:, :12].view("<f4")[:] = points.reshape(n, 3)
+    xyz = body.view("<f4")[:, :3]
+    flat = points.reshape(n, 3)
+    for axis in range(3):  # three 1-D strided copies: ~4x faster than one (n, 3) strided copy
+        xyz[:, axis] = flat[:, axis]
     if rgb is not None:
         bgra = body[:, 12:16]
         bgra[:, 0] = rgb.reshape(n, 3)[:, 2]

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 
@@ -17,11 +19,19 @@ def hat(v: np.ndarray) -> np.ndarray:
 
 def exp(phi: np.ndarray) -> np.ndarray:
     """Rotation matrix (3, 3) of the rotation vector phi (3,) (axis times angle, radians)."""
-    theta = float(np.sqrt(phi @ phi))
-    K = hat(phi)
-    if theta < 1e-8:
-        return np.eye(3) + K + 0.5 * K @ K
-    return np.eye(3) + (np.sin(theta) / theta) * K + ((1.0 - np.cos(theta)) / theta**2) * (K @ K)
+    x, y, z = float(phi[0]), float(phi[1]), float(phi[2])
+    theta2 = x * x + y * y + z * z
+    if theta2 < 1e-16:
+        a, b = 1.0, 0.5
+    else:
+        theta = math.sqrt(theta2)
+        a, b = math.sin(theta) / theta, (1.0 - math.cos(theta)) / theta2
+    # R = I + a K + b K^2 with K = [phi]x, written out
+    return np.array([
+        [1.0 - b * (y * y + z * z), -a * z + b * x * y, a * y + b * x * z],
+        [a * z + b * x * y, 1.0 - b * (x * x + z * z), -a * x + b * y * z],
+        [-a * y + b * x * z, a * x + b * y * z, 1.0 - b * (x * x + y * y)],
+    ])  # fmt: skip
 
 
 def log(R: np.ndarray) -> np.ndarray:
@@ -34,5 +44,8 @@ def log(R: np.ndarray) -> np.ndarray:
 def project(M: np.ndarray) -> np.ndarray:
     """The rotation matrix nearest (Frobenius) to a (3, 3) matrix, via SVD with det = +1."""
     U, _, Vt = np.linalg.svd(M)
-    d = np.sign(np.linalg.det(U @ Vt)) or 1.0
-    return np.asarray(U @ np.diag([1.0, 1.0, d]) @ Vt)
+    R = U @ Vt
+    if np.linalg.det(R) < 0:
+        U[:, 2] = -U[:, 2]
+        R = U @ Vt
+    return np.asarray(R)

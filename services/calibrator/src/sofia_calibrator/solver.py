@@ -18,6 +18,9 @@ import numpy as np
 from . import so3
 
 LOSSES = ("linear", "huber", "cauchy")
+# [u]x = u[:, _SKEW_IDX] * _SKEW_SIGN
+_SKEW_IDX = np.array([[0, 2, 1], [2, 0, 0], [1, 0, 0]])
+_SKEW_SIGN = np.array([[0.0, -1.0, 1.0], [1.0, 0.0, -1.0], [-1.0, 1.0, 0.0]])
 # Below 5 samples the 15-unknown linear start is underdetermined; more starts are tried.
 MIN_LINEAR_SAMPLES = 5
 
@@ -42,37 +45,41 @@ class Solution:
         return T
 
 
+def _least_squares(A: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """x minimising |A x - b|: normal equations (fast) with an SVD fallback when rank-deficient."""
+    if A.shape[0] >= 2 * A.shape[1]:
+        scale = 1.0 / np.maximum(np.sqrt(np.einsum("ij,ij->j", A, A)), 1e-300)
+        As = A * scale
+        N = As.T @ As
+        try:
+            x = np.linalg.solve(N, As.T @ b) * scale
+            if np.all(np.isfinite(x)):
+                return np.asarray(x)
+        except np.linalg.LinAlgError:
+            pass
+    return np.asarray(np.linalg.lstsq(A, b, rcond=None)[0])
+
+
 def linear_init(
     p_cam: np.ndarray, R_base_flange: np.ndarray, t_base_flange: np.ndarray, w: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Closed-form start: R_i (R p_cam_i + t) - p_base = -t_i is linear in (vec R, t, p_base).
 
     p_cam: (n, 3) camera frame; R_base_flange: (n, 3, 3); t_base_flange: (n, 3) base frame, metres;
-    w: (n,) sample weights. The 15-unknown least-squares solution's R is projected onto SO(3),
-    then t and p_base are solved again with R fixed. Returns (R (3, 3), t (3,), p_base (3,)).
+    w: (n,) sample weights. The 15-unknown least-squares solution's R is projected onto SO(3)
+    (t and p_base are kept: the first Gauss-Newton step re-solves them with R). Returns
+    (R (3, 3), t (3,), p_base (3,)).
     """
     n = len(p_cam)
-    A = np.zeros((n, 3, 15))
-    A[:, :, :9] = np.einsum("nka,nb->nkab", R_base_flange, p_cam).reshape(n, 3, 9)
+    sw = np.sqrt(w)[:, None, None]
+    A = np.empty((n, 3, 15))
+    A[:, :, :9] = (R_base_flange[:, :, :, None] * p_cam[:, None, None, :]).reshape(n, 3, 9)
     A[:, :, 9:12] = R_base_flange
     A[:, :, 12:] = -np.eye(3)
-    b = -t_base_flange
-    sw = np.sqrt(w)[:, None]
-    x = np.linalg.lstsq((A * sw[:, :, None]).reshape(-1, 15), (b * sw).ravel(), rcond=None)[0]
-    R = so3.project(x[:9].reshape(3, 3))
-    A6 = A[:, :, 9:]
-    b6 = b - np.einsum("nij,nj->ni", R_base_flange, p_cam @ R.T)
-    y = np.linalg.lstsq((A6 * sw[:, :, None]).reshape(-1, 6), (b6 * sw).ravel(), rcond=None)[0]
-    return R, y[:3], y[3:]
-
-
-def _errors(
-    R: np.ndarray, t: np.ndarray, p_base: np.ndarray, p_cam: np.ndarray, Rt_fl: np.ndarray, t_fl: np.ndarray
-) -> tuple[np.ndarray, np.ndarray]:
-    """(predicted - measured (n, 3), predicted p_cam u (n, 3)), camera frame."""
-    q = np.einsum("nij,nj->ni", Rt_fl, p_base - t_fl)  # blob in the flange frame at each pose
-    u = (q - t) @ R
-    return u - p_cam, u
+    A *= sw
+    b = -t_base_flange[:, :, None] * sw
+    x = _least_squares(A.reshape(-1, 15), b.ravel())
+    return so3.project(x[:9].reshape(3, 3)), x[9:12], x[12:]
 
 
 def _robust(s: np.ndarray, loss: str, c: float) -> tuple[np.ndarray, np.ndarray]:
@@ -97,62 +104,70 @@ def refine(
     loss: str = "linear",
     loss_scale: float = 3.0,
     max_iter: int = 100,
-    tol: float = 1e-10,
+    tol: float = 1e-9,
 ) -> Solution:
     """Levenberg-Marquardt from (R, t, p_base), R updated on the right: R exp([dtheta]x).
 
-    sigma: (n, 3) per-axis camera-frame noise, metres (whitening); loss: "linear", "huber" or
-    "cauchy" with ``loss_scale`` in sigma units (robust loss by iteratively reweighting samples).
+    Residual (camera frame) f_i = R^T (R_i^T (p_base - t_i) - t) - p_cam_i =: u_i - p_cam_i with
+    df/dtheta = [u_i]x, df/dt = -R^T, df/dp_base = R^T R_i^T. sigma: (n, 3) per-axis camera-frame
+    noise, metres (whitening); loss: "linear", "huber" or "cauchy" with ``loss_scale`` in sigma
+    units (robust loss by iteratively reweighting samples).
     """
-    Rt_fl = np.swapaxes(R_base_flange, 1, 2)
-    inv_sigma = 1.0 / sigma
     n = len(p_cam)
+    Rt_fl = np.swapaxes(R_base_flange, 1, 2)
+    d_fl = -t_base_flange
+    inv_sigma = 1.0 / sigma
+
+    ones = np.ones(n)
 
     def evaluate(R: np.ndarray, t: np.ndarray, p_base: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
-        f, u = _errors(R, t, p_base, p_cam, Rt_fl, t_base_flange)
-        e = f * inv_sigma
-        rho, w = _robust(np.einsum("ni,ni->n", e, e), loss, loss_scale)
-        return float(rho.sum()), np.concatenate([f, u], axis=1), w
+        q = (Rt_fl @ (p_base + d_fl)[:, :, None])[:, :, 0]  # blob in the flange frame at each pose
+        eu = np.empty((n, 6))
+        eu[:, 3:] = (q - t) @ R  # u: predicted blob, camera frame
+        eu[:, :3] = (eu[:, 3:] - p_cam) * inv_sigma  # whitened residual
+        if loss == "linear":
+            return float(np.vdot(eu[:, :3], eu[:, :3])), eu, ones
+        rho, w = _robust(np.einsum("ni,ni->n", eu[:, :3], eu[:, :3]), loss, loss_scale)
+        return float(rho.sum()), eu, w
 
     def jacobian(R: np.ndarray, u: np.ndarray) -> np.ndarray:
         J = np.empty((n, 3, 9))
-        J[:, :, :3] = so3.hat(u)
+        J[:, :, :3] = u[:, _SKEW_IDX] * _SKEW_SIGN  # [u]x
         J[:, :, 3:6] = -R.T
-        J[:, :, 6:] = np.einsum("ji,njk->nik", R, Rt_fl)
-        return J
+        J[:, :, 6:] = R.T @ Rt_fl
+        J *= inv_sigma[:, :, None]
+        return J.reshape(3 * n, 9)
 
-    cost, fu, w = evaluate(R, t, p_base)
-    lam = -1.0
+    cost, eu, w = evaluate(R, t, p_base)
+    lam = 1e-6
     it = 0
-    for it in range(1, max_iter + 1):  # noqa: B007 - it is reported
-        f, u = fu[:, :3], fu[:, 3:]
-        J = jacobian(R, u) * inv_sigma[:, :, None]
-        e = f * inv_sigma
-        Jw = J * w[:, None, None]
-        H = np.einsum("nki,nkj->ij", Jw, J)
-        g = np.einsum("nki,nk->i", Jw, e)
-        if lam < 0:
-            lam = 1e-6
-        improved = False
-        while lam < 1e16:
-            dx = np.linalg.solve(H + lam * np.diag(np.diag(H) + 1e-12), -g)
+    J = jacobian(R, eu[:, 3:])
+    converged = False
+    while it < max_iter and not converged:
+        it += 1
+        Jw = J * np.repeat(w, 3)[:, None] if loss != "linear" else J
+        H = Jw.T @ J
+        g = Jw.T @ eu[:, :3].ravel()
+        dH = np.diag(H) + 1e-12
+        while True:
+            dx = np.linalg.solve(H + np.diag(lam * dH), -g)
+            # Gauss-Newton decrement: the cost decrease the step promises
+            if -float(g @ dx) <= tol * max(cost, 1e-12):
+                converged = True
+                break
             R_new = R @ so3.exp(dx[:3])
             t_new, p_new = t + dx[3:6], p_base + dx[6:]
-            cost_new, fu_new, w_new = evaluate(R_new, t_new, p_new)
+            cost_new, eu_new, w_new = evaluate(R_new, t_new, p_new)
             if cost_new <= cost:
-                improved = True
+                R, t, p_base, cost, eu, w = R_new, t_new, p_new, cost_new, eu_new, w_new
+                lam = max(lam / 10.0, 1e-12)
+                J = jacobian(R, eu[:, 3:])
                 break
             lam = max(lam, 1e-9) * 10.0
-        if not improved:
-            break
-        done = cost - cost_new <= tol * max(cost, 1e-300) or float(dx @ dx) < 1e-24
-        R, t, p_base, cost, fu, w = R_new, t_new, p_new, cost_new, fu_new, w_new
-        lam = max(lam / 10.0, 1e-12)
-        if done:
-            break
-    J = jacobian(R, fu[:, 3:]) * inv_sigma[:, :, None]
-    JtJ = np.einsum("nki,nkj->ij", J, J)
-    return Solution(so3.project(R), t, p_base, cost, it, JtJ, fu[:, :3], w)
+            if lam > 1e16:
+                converged = True
+                break
+    return Solution(R, t, p_base, cost, it, J.T @ J, eu[:, :3] * sigma, w)
 
 
 def solve(

@@ -9,6 +9,7 @@ overload / voltage) are not errors of the exchange: they are kept in ``last_stat
 
 from __future__ import annotations
 
+import termios
 import threading
 from collections.abc import Callable
 from typing import Any
@@ -58,7 +59,7 @@ class DxlBus:
                 raise LineLost(self.port_name, "port not open")
             try:
                 return fn(self.port, *args)
-            except (serial.SerialException, OSError, TypeError) as e:
+            except (serial.SerialException, OSError, TypeError, termios.error) as e:
                 # TypeError: pyserial's read on a closed fd; the SDK leaves the port marked busy
                 self.port.is_using = False
                 raise LineLost(self.port_name, f"{what}: {e}") from e

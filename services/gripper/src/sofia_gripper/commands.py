@@ -168,7 +168,7 @@ def _wait(g: Gripper, cmd: GripperCommand, goal: int, current: float, t0: float)
         squeezing = (state.current_ma or 0.0) >= GRASP_CURRENT_FRACTION * current
         if cmd.action in ("grasp", "close") and squeezing:
             g.grasped = True
-            return _result(cmd, True, "stalled", state, t0, grasped=True)
+            return _result(cmd, True, "stalled", state.model_copy(update={"grasped": True}), t0, grasped=True)
         return _result(cmd, cmd.action != "grasp", "stalled", state, t0, grasped=False)
 
 

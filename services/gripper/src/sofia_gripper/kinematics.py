@@ -7,7 +7,8 @@ offset by ``e`` from the crank centre; the slider bends the Fin-Ray fingers. Wit
     x(theta) = r cos(theta) + sqrt(l^2 - (r sin(theta) - e)^2)
 
 and the slider travel is ``s = x(0) - x(theta)`` (0 at the crank's dead centre, growing as the
-gripper closes). Valid for ``theta`` in (0, pi), where the map is monotonic.
+gripper closes). The map is monotonic between the two dead centres, where crank and rod are
+collinear: ``theta`` in (asin(e / (l + r)), pi + asin(e / (l - r))) (:attr:`SliderCrank.theta_range`).
 """
 
 from __future__ import annotations
@@ -34,6 +35,10 @@ class SliderCrank:
             )
         self.r, self.l, self.e = float(crank_radius_mm), float(rod_length_mm), float(offset_mm)
         self.x0 = self.r + math.sqrt(self.l**2 - self.e**2)
+        self.theta_range = (
+            math.asin(self.e / (self.l + self.r)),
+            math.pi + math.asin(self.e / (self.l - self.r)),
+        )
 
     def travel(self, theta: Any) -> FloatArray:
         """Slider travel s (mm) for crank angles ``theta``: (n,) or scalar, radians."""
@@ -42,7 +47,7 @@ class SliderCrank:
         return np.asarray(self.x0 - x)
 
     def angle(self, travel_mm: Any) -> FloatArray:
-        """Crank angle theta (rad, in (0, pi)) for slider travels ``travel_mm``: (n,) or scalar, mm.
+        """Crank angle theta (rad, within ``theta_range``) for slider travels ``travel_mm``: (n,) or scalar, mm.
 
         Solves x cos(theta) + e sin(theta) = (x^2 + r^2 - l^2 + e^2) / (2 r) with x = x(0) - s.
         """

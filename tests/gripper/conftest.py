@@ -1,0 +1,60 @@
+"""Fixtures: an MX-64 emulator on a real pty, and the driver talking to it through dynamixel_sdk."""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Iterator
+from pathlib import Path
+
+import pytest
+from sofia_gripper import Emulator, Gripper, GripperConfig
+from sofia_schemas.messages import GripperState
+
+BAUD = 1_000_000
+
+
+def wait_until(predicate: Callable[[], bool], timeout: float, what: str) -> None:
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        if predicate():
+            return
+        time.sleep(0.01)
+    raise AssertionError(f"not reached within {timeout} s: {what}")
+
+
+def make_config(path: str, protocol: int = 2, **kw: object) -> GripperConfig:
+    base = {"port": path, "baud": BAUD, "protocol": protocol, "reconnect_period_s": 0.2, "watchdog_ms": 200}
+    return GripperConfig.model_validate({**base, **kw})
+
+
+@pytest.fixture
+def emulator(tmp_path: Path) -> Iterator[Emulator]:
+    emu = Emulator(protocol=2, baud=BAUD, link_path=tmp_path / "ttyDXL")
+    emu.start()
+    yield emu
+    emu.stop()
+
+
+@pytest.fixture
+def emulator_p1(tmp_path: Path) -> Iterator[Emulator]:
+    emu = Emulator(protocol=1, baud=BAUD, link_path=tmp_path / "ttyDXL1")
+    emu.start()
+    yield emu
+    emu.stop()
+
+
+class StateLog:
+    def __init__(self) -> None:
+        self.states: list[GripperState] = []
+
+    def __call__(self, state: GripperState) -> None:
+        self.states.append(state)
+
+
+@pytest.fixture
+def gripper(emulator: Emulator) -> Iterator[Gripper]:
+    g = Gripper(make_config(emulator.path), on_state=StateLog())
+    g.start()
+    wait_until(lambda: g.state.connected, 3.0, "gripper connected")
+    yield g
+    g.close()

@@ -1,0 +1,124 @@
+"""Find the dark calibration blob on the white sheet in an organized RGB-D cloud.
+
+The blob's 3D centre is where the ray through the blob's pixel centroid meets the plane fitted to
+the sheet around it, so it is robust to missing or noisy depth on the blob itself.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import ndimage
+
+from .errors import BlobAmbiguous, BlobCutByEdge, BlobNoDepth, BlobNotFound, InputMismatch
+
+DARK = 90  # grey level below which a pixel may belong to the blob
+BRIGHT = 170  # grey level above which a pixel belongs to the sheet
+MIN_PIXELS = 30
+RING_PX = 6
+MIN_WHITE_RING = 0.75  # fraction of the blob's surrounding ring that must be sheet
+AMBIGUOUS_RATIO = 0.3  # a second blob this large relative to the first is ambiguous
+
+
+@dataclass
+class Blob:
+    p_cam: np.ndarray  # (3,) blob centre, camera optical frame, metres
+    confidence: float  # 0..1
+    n_pixels: int
+    centroid_px: tuple[float, float]  # (u, v)
+
+
+def _validate(points_cam: np.ndarray, rgb: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    points_cam = np.asarray(points_cam, dtype=np.float64)
+    rgb = np.asarray(rgb)
+    if points_cam.ndim != 3 or points_cam.shape[2] != 3:
+        raise InputMismatch(f"points_cam must be an organized cloud (H, W, 3), got {points_cam.shape}")
+    if rgb.shape != points_cam.shape:
+        raise InputMismatch(f"rgb must have the cloud's shape {points_cam.shape}, got {rgb.shape}")
+    return points_cam, rgb
+
+
+def _rays(points_cam: np.ndarray) -> tuple[float, float, float, float]:
+    """Intrinsics (fx, cx, fy, cy) fitted to the cloud: x/z = (u - cx)/fx, y/z = (v - cy)/fy."""
+    H, W, _ = points_cam.shape
+    v, u = np.mgrid[0:H:4, 0:W:4]
+    p = points_cam[::4, ::4]
+    ok = np.isfinite(p).all(axis=2) & (p[..., 2] > 0)
+    if ok.sum() < 20:
+        raise BlobNoDepth(int(ok.size), int(ok.sum()))
+    A = np.c_[u[ok], np.ones(ok.sum())]
+    kx, bx = np.linalg.lstsq(A, p[ok][:, 0] / p[ok][:, 2], rcond=None)[0]
+    A = np.c_[v[ok], np.ones(ok.sum())]
+    ky, by = np.linalg.lstsq(A, p[ok][:, 1] / p[ok][:, 2], rcond=None)[0]
+    return 1.0 / kx, -bx / kx, 1.0 / ky, -by / ky
+
+
+def _plane(points: np.ndarray) -> tuple[np.ndarray, float, float]:
+    """Plane n.p = d through (m, 3) points, trimmed once; returns (n, d, rms residual)."""
+    for _ in range(2):
+        c = points.mean(axis=0)
+        n = np.linalg.svd(points - c, full_matrices=False)[2][2]
+        r = (points - c) @ n
+        keep = np.abs(r) <= max(3.0 * 1.4826 * np.median(np.abs(r)), 1e-4)
+        points = points[keep]
+    return n, float(n @ c), float(np.sqrt(np.mean(r[keep] ** 2)))
+
+
+def find_blob(points_cam: np.ndarray, rgb: np.ndarray) -> Blob:
+    """The blob in an organized cloud.
+
+    points_cam: (H, W, 3) float, camera optical frame, metres, NaN where missing.
+    rgb: (H, W, 3) uint8. Raises BlobNotFound, BlobCutByEdge, BlobAmbiguous or BlobNoDepth.
+    """
+    points_cam, rgb = _validate(points_cam, rgb)
+    H, W, _ = rgb.shape
+    grey = rgb.astype(np.float32).mean(axis=2)
+    bright = grey > BRIGHT
+    labels, n = ndimage.label(grey < DARK)
+    if n == 0:
+        raise BlobNotFound(f"no pixel darker than {DARK} (darkest grey {grey.min():.0f})")
+    sizes = ndimage.sum_labels(np.ones_like(grey), labels, index=np.arange(1, n + 1))
+    slices = ndimage.find_objects(labels)
+    found: list[tuple[int, int]] = []
+    cut: list[tuple[int, int, int, int]] = []
+    for k in np.flatnonzero(sizes >= MIN_PIXELS):
+        sl = slices[k]
+        r0, r1 = max(sl[0].start - RING_PX, 0), min(sl[0].stop + RING_PX, H)
+        c0, c1 = max(sl[1].start - RING_PX, 0), min(sl[1].stop + RING_PX, W)
+        mask = labels[r0:r1, c0:c1] == k + 1
+        ring = ndimage.binary_dilation(mask, iterations=RING_PX) & ~mask
+        if bright[r0:r1, c0:c1][ring].mean() < MIN_WHITE_RING:
+            continue  # not enclosed by the sheet: table edge, gripper, shadow
+        touches = sl[0].start == 0 or sl[1].start == 0 or sl[0].stop == H or sl[1].stop == W
+        if touches:
+            cut.append((sl[0].start, sl[0].stop - 1, sl[1].start, sl[1].stop - 1))
+        else:
+            found.append((int(sizes[k]), k + 1))
+    if not found:
+        if cut:
+            raise BlobCutByEdge(cut[0], (H, W))
+        raise BlobNotFound(f"none of {n} dark regions is a blob of >= {MIN_PIXELS} pixels on the white sheet")
+    found.sort(reverse=True)
+    if len(found) > 1 and found[1][0] >= AMBIGUOUS_RATIO * found[0][0]:
+        raise BlobAmbiguous([s for s, _ in found])
+    size, label = found[0]
+    mask = labels == label
+    vv, uu = np.nonzero(mask)
+    u_c, v_c = float(uu.mean()), float(vv.mean())
+    ring = ndimage.binary_dilation(mask, iterations=RING_PX) & ~mask & bright
+    on_plane = (mask | ring) & np.isfinite(points_cam).all(axis=2)
+    n_valid = int((mask & on_plane).sum())
+    if on_plane.sum() < 20:
+        raise BlobNoDepth(size, n_valid)
+    fx, cx, fy, cy = _rays(points_cam)
+    ray = np.array([(u_c - cx) / fx, (v_c - cy) / fy, 1.0])
+    normal, d, rms = _plane(points_cam[on_plane])
+    denom = float(normal @ ray)
+    if abs(denom) < 1e-3:
+        raise BlobNotFound(f"the sheet is seen edge-on (normal {np.round(normal, 3).tolist()})")
+    p_cam = ray * (d / denom)
+    contrast = float(grey[ring].mean() - grey[mask].mean()) if ring.any() else 0.0
+    fill = size / max(np.pi * 0.25 * np.ptp(uu + 1) * np.ptp(vv + 1), 1.0)  # 1 for a full ellipse
+    confidence = float(np.clip(contrast / 150.0, 0, 1) * np.clip(fill, 0, 1) * np.exp(-rms / 0.005))
+    return Blob(p_cam, confidence, size, (u_c, v_c))

@@ -1,0 +1,79 @@
+"""Calibration samples from an MCAP recording: blob observations (or camera clouds, extracting
+the blob) paired with the recorded flange poses."""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+from sofia_schemas import rosmsg
+from sofia_schemas.keys import TOPIC_BLOB, TOPIC_CAMERA_POINTS, TOPIC_FLANGE_POSE
+
+from .errors import CalibrationError, InputMismatch
+from .pairing import NotPaired, PairingOptions, PoseBuffer
+
+log = logging.getLogger(__name__)
+
+
+@dataclass
+class McapSamples:
+    p_cam: np.ndarray  # (n, 3) camera optical frame, metres
+    T_base_flange: np.ndarray  # (n, 4, 4)
+    stamps_ns: list[int]
+    rejected: list[str] = field(default_factory=list)  # why each skipped observation was skipped
+
+
+def read_mcap(
+    path: str | Path, from_clouds: bool = False, opts: PairingOptions | None = None,
+    blob_topic: str = TOPIC_BLOB, pose_topic: str = TOPIC_FLANGE_POSE, cloud_topic: str = TOPIC_CAMERA_POINTS,
+) -> McapSamples:  # fmt: skip
+    """Samples of a recording. ``from_clouds``: extract the blob from the organized camera clouds
+    instead of reading recorded blob observations."""
+    from sofia_replay.mcap_io import iter_messages
+
+    opts = opts or PairingOptions()
+    poses = PoseBuffer()
+    observations: list[tuple[int, np.ndarray]] = []
+    rejected: list[str] = []
+    topics = [pose_topic, cloud_topic if from_clouds else blob_topic]
+    for m in iter_messages(path, topics):
+        if m.topic == pose_topic:
+            pose = rosmsg.decode_flange_pose(m.data)
+            poses.add(pose.stamp_ns, pose.matrix())
+        elif from_clouds:
+            from sofia_schemas import pointcloud
+
+            from .blob import find_blob
+
+            cloud = pointcloud.decode(m.data)
+            try:
+                xyz, rgb = cloud.xyz(), cloud.rgb()
+                blob = find_blob(
+                    xyz.reshape(cloud.height, cloud.width, 3), rgb.reshape(cloud.height, cloud.width, 3)
+                )
+            except CalibrationError as e:
+                rejected.append(f"cloud at {cloud.stamp_ns} ns: {e}")
+                continue
+            observations.append((cloud.stamp_ns, blob.p_cam))
+        else:
+            obs = rosmsg.decode_blob(m.data)
+            observations.append((obs.stamp_ns, np.array(obs.position)))
+    p, T, stamps = [], [], []
+    for stamp_ns, p_cam in observations:
+        try:
+            T.append(poses.pair(stamp_ns, opts))
+        except NotPaired as e:
+            rejected.append(str(e))
+            continue
+        p.append(p_cam)
+        stamps.append(stamp_ns)
+    if not p:
+        raise InputMismatch(
+            f"{path}: no usable samples ({len(observations)} observations on "
+            f"{topics[1]!r}, {len(poses)} flange poses on {pose_topic!r}); {rejected[:3]}"
+        )
+    for r in rejected:
+        log.info("skipped: %s", r)
+    return McapSamples(np.array(p), np.array(T), stamps, rejected)

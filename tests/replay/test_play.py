@@ -190,3 +190,62 @@ def test_info_json(recording: tuple[Path, dict[str, list[bytes]]], sofia_proc: C
     info = json.loads(proc.log())
     assert info["n_messages"] == 4 * N + 1
     assert info["topics"]["/extra/goal"] == {"schema": POSE, "encoding": "cdr", "count": N}
+
+
+STALLED_SUBSCRIBER = """
+import sys, time
+from sofia_schemas.zenoh_config import open_session
+with open_session() as s:
+    sub = s.declare_subscriber(sys.argv[1], lambda sample: None)
+    print("ready", flush=True)
+    time.sleep(120)
+"""
+
+
+def _rss_mb(pid: int) -> float:
+    for line in Path(f"/proc/{pid}/status").read_text().splitlines():
+        if line.startswith("VmRSS:"):
+            return int(line.split()[1]) / 1024
+    raise AssertionError(f"no VmRSS for {pid}")
+
+
+@pytest.mark.slow
+def test_stalled_subscriber_does_not_grow_memory(
+    sofia_proc: Callable[..., Any], robot_id: str, tmp_path: Path
+) -> None:
+    """A subscriber process frozen with SIGSTOP: the replayer's memory stays flat and it keeps going."""
+    import signal
+    import subprocess
+    import sys
+
+    path = tmp_path / "big.mcap"
+    rng = np.random.default_rng(0)
+    with McapWriter(path) as w:
+        for i in range(10):
+            p = rng.normal(size=(480, 640, 3)).astype(np.float32)
+            w.write_cloud(
+                TOPIC_POINTS, pointcloud.encode_points(p, stamp_ns=i, frame_id="f"), T0 + i * PERIOD
+            )
+    sub = subprocess.Popen(
+        [sys.executable, "-c", STALLED_SUBSCRIBER, Keys(robot_id).points], stdout=subprocess.PIPE
+    )
+    try:
+        assert sub.stdout is not None and sub.stdout.readline().strip() == b"ready"
+        proc = sofia_proc(
+            "replay", "play", str(path), "--fast", "--loop", "--wait-subscribers", "20", "--progress", "1"
+        )
+        proc.wait_for_log("published", timeout=30)
+        sub.send_signal(signal.SIGSTOP)
+        rss = []
+        for _ in range(12):
+            time.sleep(1.0)
+            rss.append(_rss_mb(proc.popen.pid))
+        assert max(rss) - min(rss) < 100, rss  # 10 s of 4 MB clouds at full speed would be gigabytes
+        n_logs = proc.log().count("published")
+        time.sleep(2.5)
+        assert proc.log().count("published") > n_logs, "the replayer stopped making progress"
+        assert proc.stop() == 0
+    finally:
+        sub.send_signal(signal.SIGCONT)
+        sub.kill()
+        sub.wait(10)

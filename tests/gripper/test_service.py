@@ -1,0 +1,106 @@
+"""The gripper service as a separate process (--emulate), driven over Zenoh from this process."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import threading
+import time
+from collections.abc import Callable, Iterator
+
+import pytest
+import zenoh
+from sofia_schemas.keys import ENCODING_JSON, Keys
+from sofia_schemas.messages import ErrorReply, GripperResult, GripperState, ServiceStatus
+from sofia_schemas.zenoh_config import zenoh_config
+
+from ..conftest import SOFIA, Proc
+
+
+@pytest.fixture
+def session() -> Iterator[zenoh.Session]:
+    with zenoh.open(zenoh_config()) as s:
+        yield s
+
+
+def query(session: zenoh.Session, key: str, payload: bytes, timeout: float = 10.0) -> zenoh.Reply:
+    deadline = time.monotonic() + 10.0
+    while True:  # the first queries may go out before discovery completes
+        replies = list(session.get(key, payload=payload, encoding=ENCODING_JSON, timeout=timeout))
+        if replies or time.monotonic() > deadline:
+            assert len(replies) == 1, replies
+            return replies[0]
+        time.sleep(0.2)
+
+
+def ok(reply: zenoh.Reply) -> GripperResult:
+    assert reply.ok is not None, reply.err.payload.to_bytes() if reply.err else None
+    return GripperResult.model_validate_json(reply.ok.payload.to_bytes())
+
+
+def err(reply: zenoh.Reply) -> ErrorReply:
+    assert reply.err is not None, "expected an error reply"
+    return ErrorReply.model_validate_json(reply.err.payload.to_bytes())
+
+
+@pytest.fixture
+def service(sofia_proc: Callable[..., Proc]) -> Proc:
+    proc = sofia_proc("gripper", "serve", "--emulate", "--baud", "1000000", "--object-width", "40")
+    proc.wait_for_log("gripper service ready", timeout=30)
+    return proc
+
+
+def test_service_over_zenoh(service: Proc, session: zenoh.Session, robot_id: str) -> None:
+    keys = Keys(robot_id)
+    states: list[GripperState] = []
+    lock = threading.Lock()
+
+    def on_state(sample: zenoh.Sample) -> None:
+        with lock:
+            states.append(GripperState.model_validate_json(sample.payload.to_bytes()))
+
+    sub = session.declare_subscriber(keys.gripper_state, on_state)
+    r = ok(query(session, keys.gripper_command, b'{"action": "grasp", "force_n": 10}'))
+    assert r.ok and r.grasped and r.opening_mm == pytest.approx(40.0, abs=2.0)
+    time.sleep(0.3)
+    with lock:
+        n0 = len(states)
+    time.sleep(1.0)
+    with lock:
+        recent = states[n0:]
+    assert len(recent) >= 50, f"{len(recent)} states in 1 s"  # >= 50 Hz
+    assert all(s.connected and s.grasped for s in recent)
+
+    e = err(query(session, keys.gripper_command, b'{"action": "move", "opening_mm": 300}'))
+    assert e.error == "OutOfRange" and "300" in e.message
+    e = err(query(session, keys.gripper_command, b"not json"))
+    assert e.error == "PayloadError" and "not json" in e.message
+    e = err(query(session, keys.gripper_command, b""))
+    assert e.error == "PayloadError" and "no payload" in e.message
+    assert ok(query(session, keys.gripper_command, b'{"action": "release"}')).ok
+
+    status = ServiceStatus.model_validate_json(
+        query(session, keys.status("gripper"), b"").ok.payload.to_bytes()
+    )  # type: ignore[union-attr]
+    assert status.service == "gripper" and status.state == "ok" and status.counters["command_errors"] == 3
+    sub.undeclare()
+    assert service.stop() == 0
+
+
+def test_cli_commands_against_the_service(service: Proc, robot_id: str) -> None:
+    env = dict(os.environ, SOFIA_ROBOT=robot_id)
+
+    def sofia(*args: str) -> subprocess.CompletedProcess[str]:
+        return subprocess.run([SOFIA, "gripper", *args], env=env, capture_output=True, text=True, timeout=60)
+
+    done = sofia("grasp", "--force", "10")
+    assert done.returncode == 0, done.stderr
+    assert json.loads(done.stdout)["grasped"] is True
+    bad = sofia("move", "--opening", "500")
+    assert bad.returncode == 1 and "OutOfRange" in bad.stderr and "500" in bad.stderr
+    assert sofia("open").returncode == 0
+    state = sofia("state")
+    assert state.returncode == 0 and json.loads(state.stdout)["state"]["connected"] is True
+    invalid = sofia("grasp", "--force", "-3")
+    assert invalid.returncode == 2 and "force_n" in invalid.stderr

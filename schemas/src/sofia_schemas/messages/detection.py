@@ -23,14 +23,21 @@ class DetectedObject(Message):
 
 
 class Detection(Message):
-    """Detector result for one cloud. ``status`` is ``no_object`` on an empty board."""
+    """Detector result for one cloud.
+
+    ``status``: ``ok`` (objects found), ``no_object`` (the board is seen and empty) or ``no_board``
+    (no board surface near the configured board: nothing can be said; ``detail`` tells why).
+    """
 
     stamp_ns: int  # stamp of the cloud
     frame_id: str
-    status: Literal["ok", "no_object"]
+    status: Literal["ok", "no_object", "no_board"]
     objects: list[DetectedObject] = []  # allowed fields first
     board_normal: Vec3 | None = None  # measured board plane normal, base frame
     board_offset_m: float | None = None  # measured plane height at the board centre minus surface_z
+    board_center: Vec3 | None = None  # measured board centre on its surface, base frame
+    board_yaw: float | None = None  # measured board yaw about the base z axis, radians
     timings_ms: dict[str, float] = {}
     transform: str | None = None  # which flange->camera transform was used (camera-frame clouds)
     source: str | None = None  # key expression or file the cloud came from
+    detail: str = ""  # why there is no result, or what was approximated

@@ -1,0 +1,94 @@
+"""The real board from the cloud: its plane, then its position and yaw within the plane."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from sofia_schemas import Board
+
+from .outline import Outline, fit_outline, grid_boundary, largest_component
+from .params import DetectorParams
+from .plane import PlaneFit, T_cfg_plane, change_frame, fit_plane, planar_transform
+
+MIN_BOARD_POINTS = 50
+PLANE_FIT_POINTS = 4000  # enough for a sub-millimetre plane
+OUTLINE_CELL = 0.008  # occupancy cell of the outline of unorganized clouds, metres
+
+
+@dataclass(frozen=True)
+class BoardFit:
+    """The measured board.
+
+    T_base_board: (4, 4) measured board frame (origin at the board centre on its surface, z along
+    the measured normal, x along the board rows). T_base_plane: (4, 4) the plane frame (see
+    :mod:`.plane`). plane: the robust plane fit. outline: the board rectangle (None when too few
+    board-top points were seen). m_coarse: (3, ...) float32 coordinates of the coarse points in
+    the plane frame, for seeding objects.
+    """
+
+    T_base_board: np.ndarray
+    T_base_plane: np.ndarray
+    plane: PlaneFit
+    outline: Outline | None
+    m_coarse: np.ndarray
+
+
+def _outline_points(m: np.ndarray, band: np.ndarray, half: np.ndarray) -> np.ndarray:
+    """(k, 2) plane-frame points on the outline of the largest connected patch of ``band``.
+
+    Organized ``m`` (3, h, w): connectivity on every second cell of the pixel grid. Unorganized
+    (3, n): on an occupancy grid of :data:`OUTLINE_CELL` cells over ``[-half, half]``.
+    """
+    if m.ndim == 3:
+        comp = largest_component(band[::2, ::2])
+        if not comp.any():
+            return np.empty((0, 2))
+        r, c = grid_boundary(comp)
+        return np.stack([m[0, 2 * r, 2 * c], m[1, 2 * r, 2 * c]], axis=1)
+    xy = m[:2, band].T
+    shape = tuple(np.ceil(2 * half / OUTLINE_CELL).astype(int) + 1)
+    idx = np.floor((xy + half) / OUTLINE_CELL).astype(np.intp)
+    occ = np.zeros(shape, dtype=bool)
+    occ[idx[:, 0], idx[:, 1]] = True
+    comp = largest_component(occ)
+    if not comp.any():
+        return np.empty((0, 2))
+    r, c = grid_boundary(comp)
+    return (np.stack([r, c], axis=1) + 0.5) * OUTLINE_CELL - half
+
+
+def fit_board(coarse_base: np.ndarray, board: Board, params: DetectorParams) -> BoardFit | None:
+    """Measure the board from a coarse cloud.
+
+    coarse_base: (3, h, w) organized or (3, n) float32 coordinates, base frame, metres, NaN
+    allowed. Returns None when fewer than :data:`MIN_BOARD_POINTS` points lie near the configured
+    board.
+    """
+    q = change_frame(coarse_base, board.T_base_board)
+    ex, ey = board.extent
+    with np.errstate(invalid="ignore"):
+        cand = (
+            (np.abs(q[0]) < ex / 2 - params.board_shrink)
+            & (np.abs(q[1]) < ey / 2 - params.board_shrink)
+            & (np.abs(q[2]) < params.board_band)
+        )
+    idx = np.flatnonzero(cand)
+    idx = idx[:: max(1, idx.size // PLANE_FIT_POINTS)]
+    qf = q.reshape(3, -1)[:, idx]
+    plane = fit_plane(qf[0], qf[1], qf[2], params.plane_thresholds, MIN_BOARD_POINTS)
+    if plane is None:
+        return None
+    T_cp = T_cfg_plane(plane)
+    T_base_plane = board.T_base_board @ T_cp
+    m = change_frame(q, T_cp)
+    half = np.array([ex / 2, ey / 2]) + params.outline_margin
+    with np.errstate(invalid="ignore"):
+        band = (np.abs(m[2]) < params.outline_band) & (np.abs(m[0]) < half[0]) & (np.abs(m[1]) < half[1])
+    outline_xy = _outline_points(m, band, half)
+    outline = None
+    T_plane_board = np.eye(4)
+    if outline_xy.shape[0] >= 8:
+        outline = fit_outline(outline_xy, board.extent, params.max_board_yaw, params.max_rim)
+        T_plane_board = planar_transform(*outline.center, outline.yaw)
+    return BoardFit(T_base_plane @ T_plane_board, T_base_plane, plane, outline, m)

@@ -1,0 +1,35 @@
+"""Errors of the detector. Each constructor builds a message saying what was wrong, with the value."""
+
+from __future__ import annotations
+
+from sofia_schemas.errors import SofiaError
+
+
+class DetectorError(SofiaError, ValueError):
+    """Base class of every detector error."""
+
+
+class BadCloud(DetectorError):  # noqa: N818 - public API name
+    """The points given to :func:`sofia_detector.detect` cannot be a point cloud."""
+
+    def __init__(self, what: str) -> None:
+        super().__init__(f"bad point cloud: {what}")
+
+
+class UnreadableFile(DetectorError):  # noqa: N818 - public API name
+    """A cloud file could not be read."""
+
+    def __init__(self, path: object, what: str) -> None:
+        super().__init__(f"{path}: {what}")
+
+
+class TransformUnavailable(DetectorError):  # noqa: N818 - public API name
+    """A camera-frame cloud cannot be mapped into the base frame."""
+
+    def __init__(self, what: str) -> None:
+        super().__init__(f"cannot map the camera-frame cloud into the base frame: {what}")
+
+
+class BadTransformFile(DetectorError):  # noqa: N818 - public API name
+    def __init__(self, path: object, what: str) -> None:
+        super().__init__(f"transform file {path}: {what}")

@@ -1,0 +1,103 @@
+"""One object from its points: footprint rectangle, top height, centre without one-sided bias.
+
+The camera sees an object from above and one side. Boxes and cylinders have vertical sides, so
+their visible points (top and near sides) project onto the footprint exactly: the minimum-area
+rectangle of the projected points is the footprint. A curved top (a ball) hides its far side, so
+its footprint centre is the apex of ``h = a + b x + c y + d (x^2 + y^2)`` fitted to the top cap,
+which is symmetric about the centre whatever the viewing direction.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .outline import min_area_rect
+
+
+@dataclass(frozen=True)
+class ObjectEstimate:
+    """An object in the board frame (metres, radians).
+
+    center_xy: (2,) footprint centre. height: top above the board. size: (length, width) with
+    length >= width. yaw: direction of the length axis. centroid: (3,) mean of the points.
+    curved: the top was fitted as a cap.
+    """
+
+    center_xy: np.ndarray
+    height: float
+    size: tuple[float, float]
+    yaw: float
+    centroid: np.ndarray
+    curved: bool
+    n_points: int
+
+
+def fit_top(x: np.ndarray, y: np.ndarray, h: np.ndarray) -> tuple[np.ndarray, float] | None:
+    """Least-squares ``h = a + b x + c y + d (x^2 + y^2)`` and the standard error of ``d``.
+
+    x, y: (n,) float, board frame, metres, centred near the top. h: (n,) heights, metres.
+    Returns ((a, b, c, d), se_d), or None when the system is singular or has too few points.
+    """
+    if h.size < 8:
+        return None
+    A = np.stack([np.ones_like(x), x, y, x * x + y * y]).astype(np.float64)
+    try:
+        M_inv = np.linalg.inv(A @ A.T)
+    except np.linalg.LinAlgError:
+        return None
+    coef = M_inv @ (A @ h.astype(np.float64))
+    rss = float(np.sum((h - coef @ A) ** 2))
+    se_d = np.sqrt(max(rss, 0.0) / (h.size - 4) * M_inv[3, 3])
+    return (coef, float(se_d)) if np.all(np.isfinite(coef)) and np.isfinite(se_d) else None
+
+
+def estimate_object(b: np.ndarray, boundary_xy: np.ndarray, noise: float, curvature: float) -> ObjectEstimate:
+    """Footprint, height and centre of one object.
+
+    b: (3, n) float32, board frame, metres: the object's points (z = height above the board).
+    boundary_xy: (k, 2) points including every vertex of the convex hull of the footprint.
+    noise: depth noise standard deviation at the board, metres. curvature: the top is a cap when
+    ``d < -curvature`` (1/m) and d is significant (t < -4). The fit uses the top points inside the
+    ellipse inscribed in 70 % of the footprint rectangle, so the visible sides of a flat-topped
+    object do not bend it.
+    """
+    h = b[2]
+    n = h.size
+    k = max(n - 1 - n // 100, 0)
+    h_hi = float(np.partition(h, k)[k])  # 99th percentile
+    depth = float(np.clip(0.14 * h_hi, 0.004, 0.012))
+    rect = min_area_rect(boundary_xy)
+    R = rect.R
+    mid, half = (rect.lo + rect.hi) / 2, np.maximum(rect.size / 2, 1e-4)
+    u = ((R[0, 0] * b[0] + R[1, 0] * b[1]) - mid[0]) / half[0]
+    v = ((R[0, 1] * b[0] + R[1, 1] * b[1]) - mid[1]) / half[1]
+    inner = (h > h_hi - 2.3 * noise - depth) & (u * u + v * v < 0.49)
+    top = b[:, inner]
+    mean_top = top[:2].mean(axis=1, dtype=np.float64) if top.shape[1] else R @ mid
+    fit = fit_top(top[0] - mean_top[0], top[1] - mean_top[1], top[2])
+    curved = False
+    yaw = rect.yaw
+    if fit is not None and fit[0][3] < -curvature and fit[0][3] < -4 * fit[1]:
+        coef = fit[0]
+        apex = mean_top - coef[1:3] / (2 * coef[3])
+        apex_uv = R.T @ apex
+        if np.all((apex_uv > rect.lo) & (apex_uv < rect.hi)):
+            curved = True
+            center_xy = apex
+            height = float(coef[0] - (coef[1] ** 2 + coef[2] ** 2) / (4 * coef[3]))
+            size = 2 * np.maximum(apex_uv - rect.lo, rect.hi - apex_uv)
+    if not curved:
+        center_xy = rect.center
+        height = float(np.median(top[2])) if top.shape[1] else h_hi
+        size = rect.size
+    if size[0] < size[1]:
+        size = size[::-1]
+        yaw += np.pi / 2
+    yaw = float((yaw + np.pi / 2) % np.pi - np.pi / 2)
+    centroid = b.mean(axis=1, dtype=np.float64)
+    return ObjectEstimate(
+        center_xy=np.asarray(center_xy, dtype=np.float64), height=height,
+        size=(float(size[0]), float(size[1])), yaw=yaw, centroid=centroid, curved=curved, n_points=n,
+    )  # fmt: skip

@@ -1,0 +1,124 @@
+"""The points of each object on the board.
+
+Organized clouds: object seeds on the coarse pixel grid (heights above the measured plane), then
+full resolution only inside each seed's pixel window. Unorganized clouds: connected cells of an
+occupancy grid in the board plane.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import ndimage
+
+from .outline import grid_boundary, hull
+from .params import DetectorParams
+from .plane import change_frame, coords
+
+EIGHT = np.ones((3, 3), dtype=bool)
+
+
+@dataclass(frozen=True)
+class ObjectPoints:
+    """One object: b (3, n) float32 board-frame coordinates (z = height), metres; boundary_xy (k, 2)
+    points that include every vertex of the convex hull of the footprint."""
+
+    b: np.ndarray
+    boundary_xy: np.ndarray
+
+
+def _inside(xy: np.ndarray, half: np.ndarray) -> bool:
+    return bool(np.all(np.abs(xy) < half))
+
+
+def _covers(r0: int, c0: int, mask: np.ndarray, rows: np.ndarray, cols: np.ndarray) -> bool:
+    """True when any pixel (rows, cols) lies in ``mask`` placed at (r0, c0)."""
+    r, c = rows - r0, cols - c0
+    ok = (r >= 0) & (r < mask.shape[0]) & (c >= 0) & (c < mask.shape[1])
+    return bool(mask[r[ok], c[ok]].any())
+
+
+def organized_objects(
+    points_base: np.ndarray,
+    m_coarse: np.ndarray,
+    T_base_board: np.ndarray,
+    T_board_plane: np.ndarray,
+    half: np.ndarray,
+    params: DetectorParams,
+) -> Iterator[ObjectPoints]:
+    """Objects of an organized cloud.
+
+    points_base: (H, W, 3) float, base frame, metres. m_coarse: (3, h, w) float32, plane frame, the
+    coordinates of ``points_base[::stride, ::stride]``. T_base_board: (4, 4) measured board frame;
+    T_board_plane: (4, 4) plane frame in the board frame. half: (2,) half size of the region where
+    object centres may lie, board frame.
+    """
+    s = params.stride
+    H, W = points_base.shape[:2]
+    with np.errstate(invalid="ignore"):
+        seeds = (m_coarse[2] > params.seed_height) & (m_coarse[2] < params.max_height)
+    labels, _ = ndimage.label(seeds, structure=EIGHT)
+    claimed: list[tuple[int, int, np.ndarray]] = []  # (row, col, mask) of the objects found so far
+    for i, sl in enumerate(ndimage.find_objects(labels), start=1):
+        comp = labels[sl] == i
+        sr, sc = np.nonzero(comp)
+        if sr.size < params.min_seed_pixels:
+            continue
+        xy_plane = m_coarse[:2][:, sl[0], sl[1]][:, comp].mean(axis=1)
+        if not _inside(T_board_plane[:2, :2] @ xy_plane + T_board_plane[:2, 3], half):
+            continue  # clutter beside the board
+        rows, cols = (sr + sl[0].start) * s, (sc + sl[1].start) * s  # full-resolution seed pixels
+        if any(_covers(r, c, m, rows, cols) for r, c, m in claimed):
+            continue  # a second seed of an object already found (holes in the cloud split it)
+        r0, r1 = max((sl[0].start - 1) * s, 0), min(sl[0].stop * s + s, H)
+        c0, c1 = max((sl[1].start - 1) * s, 0), min(sl[1].stop * s + s, W)
+        b = change_frame(coords(points_base[r0:r1, c0:c1]), T_base_board)
+        with np.errstate(invalid="ignore"):
+            mask = (b[2] > params.object_height) & (b[2] < params.max_height)
+        wl, _ = ndimage.label(mask, structure=EIGHT)
+        hits = wl[rows - r0, cols - c0]
+        hits = hits[hits > 0]
+        if hits.size == 0:
+            continue
+        obj = wl == int(np.argmax(np.bincount(hits)))
+        claimed.append((r0, c0, obj))
+        br, bc = grid_boundary(obj)
+        yield ObjectPoints(b[:, obj], np.stack([b[0, br, bc], b[1, br, bc]], axis=1))
+
+
+def unorganized_objects(
+    points_base: np.ndarray, T_base_board: np.ndarray, half: np.ndarray, params: DetectorParams
+) -> Iterator[ObjectPoints]:
+    """Objects of an unorganized cloud.
+
+    points_base: (n, 3) float, base frame, metres. T_base_board: (4, 4) measured board frame.
+    half: (2,) half size of the region where object centres may lie, board frame. Points above the
+    board are binned into ``params.cell`` cells; cells holding at least two points are connected.
+    """
+    b = change_frame(coords(points_base), T_base_board)
+    grid_half = half + 0.06
+    with np.errstate(invalid="ignore"):
+        keep = (
+            (b[2] > params.object_height)
+            & (b[2] < params.max_height)
+            & (np.abs(b[0]) < grid_half[0])
+            & (np.abs(b[1]) < grid_half[1])
+        )
+    b = b[:, keep]
+    if b.shape[1] == 0:
+        return
+    shape = tuple(np.ceil(2 * grid_half / params.cell).astype(int) + 1)
+    idx = np.floor((b[:2].T + grid_half) / params.cell).astype(np.intp)
+    flat = np.ravel_multi_index((idx[:, 0], idx[:, 1]), shape)
+    counts = np.bincount(flat, minlength=shape[0] * shape[1]).reshape(shape)
+    labels, n = ndimage.label(counts >= 2, structure=EIGHT)
+    point_labels = labels.ravel()[flat]
+    order = np.argsort(point_labels, kind="stable")
+    bounds = np.searchsorted(point_labels[order], np.arange(1, n + 2))
+    for i in range(n):
+        pts = b[:, order[bounds[i] : bounds[i + 1]]]
+        if pts.shape[1] == 0 or not _inside(pts[:2].mean(axis=1), half):
+            continue
+        yield ObjectPoints(pts, hull(pts[:2].T))

@@ -1,0 +1,46 @@
+"""The command line: config file + overrides, and the emulator as its own process."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from pathlib import Path
+
+from dynamixel_sdk import COMM_SUCCESS, PacketHandler, PortHandler
+from sofia_gripper import GripperConfig, save_config
+from sofia_gripper.cli import build_command, gripper_config
+from sofia_schemas.cli import build_parser
+
+from ..conftest import Proc
+from .conftest import wait_until
+
+
+def test_config_file_with_command_line_overrides(tmp_path: Path) -> None:
+    path = tmp_path / "g.yaml"
+    save_config(GripperConfig(port="/dev/ttyUSB3", open_ticks=1500, closed_ticks=2500), path)
+    args = build_parser().parse_args(
+        ["gripper", "serve", "--config", str(path), "--baud", "1000000", "--protocol", "1.0"]
+    )
+    conf = gripper_config(args)
+    assert (conf.port, conf.baud, conf.protocol, conf.open_ticks) == ("/dev/ttyUSB3", 1_000_000, 1, 1500)
+
+
+def test_people_commands_build_the_right_messages() -> None:
+    parse = build_parser().parse_args
+    cmd = build_command(parse(["gripper", "grasp", "--force", "15", "--speed", "0.5"]))
+    assert (cmd.action, cmd.force_n, cmd.speed) == ("grasp", 15.0, 0.5)
+    cmd = build_command(parse(["gripper", "move", "--opening", "42"]))
+    assert (cmd.action, cmd.opening_mm) == ("move", 42.0)
+    assert build_command(parse(["gripper", "torque", "off"])).enable is False
+
+
+def test_emulate_command_serves_a_tty(sofia_proc: Callable[..., Proc], tmp_path: Path) -> None:
+    link = tmp_path / "ttyEMU"
+    proc = sofia_proc("gripper", "emulate", "--baud", "1000000", "--protocol", "1.0", "--link", str(link))
+    wait_until(lambda: str(link) in proc.log(), 20.0, "tty path printed")
+    port = PortHandler(str(link))
+    assert port.setBaudRate(1_000_000)
+    try:
+        assert PacketHandler(1.0).ping(port, 1) == (310, COMM_SUCCESS, 0)
+    finally:
+        port.closePort()
+    assert proc.stop() == 0

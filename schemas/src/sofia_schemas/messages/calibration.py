@@ -61,3 +61,24 @@ class CalibrationResult(Message):
     sample_ids: list[int] = []  # ids of the samples (service), in the order of the indices above
     with_all_samples: CalibrationSummary | None = None  # when outliers were excluded
     without_outliers: CalibrationSummary | None = None  # when outliers were found but kept
+
+
+class CalibrationSamples(Message):
+    """The calibrator's samples (reply of ``calibrator/samples``, ``add``, ``remove``, ``reset``)."""
+
+    samples: list[CalibrationSample]
+
+
+class CalibrationSolveOptions(Message):
+    """Payload of ``calibrator/solve`` (every field optional)."""
+
+    loss: str = "linear"  # linear | huber | cauchy
+    noise: str = "depth"  # depth | uniform
+    exclude_outliers: bool = True
+    guess: tuple[float, float, float, float, float, float, float] | None = None  # x y z qx qy qz qw
+
+
+class CalibrationRemove(Message):
+    """Payload of ``calibrator/remove``."""
+
+    sample_ids: list[int]

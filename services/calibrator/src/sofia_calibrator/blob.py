@@ -94,7 +94,7 @@ def find_blob(points_cam: np.ndarray, rgb: np.ndarray) -> Blob:
         if touches:
             cut.append((sl[0].start, sl[0].stop - 1, sl[1].start, sl[1].stop - 1))
         else:
-            found.append((int(sizes[k]), k + 1))
+            found.append((int(sizes[k]), int(k) + 1))
     if not found:
         if cut:
             raise BlobCutByEdge(cut[0], (H, W))

@@ -50,9 +50,12 @@ def read_mcap(
             cloud = pointcloud.decode(m.data)
             try:
                 xyz, rgb = cloud.xyz(), cloud.rgb()
-                blob = find_blob(
-                    xyz.reshape(cloud.height, cloud.width, 3), rgb.reshape(cloud.height, cloud.width, 3)
-                )
+                if rgb is None:
+                    raise InputMismatch(
+                        f"cloud on {cloud_topic!r} has no rgb field: the blob cannot be found"
+                    )
+                shape = (cloud.height, cloud.width, 3)
+                blob = find_blob(xyz.reshape(shape), rgb.reshape(shape))
             except CalibrationError as e:
                 rejected.append(f"cloud at {cloud.stamp_ns} ns: {e}")
                 continue

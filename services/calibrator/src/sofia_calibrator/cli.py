@@ -1,0 +1,107 @@
+"""``sofia calibrate`` (for people: files in, calibration out) and ``sofia calibrator`` (the service)."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+
+import numpy as np
+from sofia_schemas.transforms import make_transform
+from sofia_schemas.zenoh_config import add_zenoh_args
+
+from .errors import InputMismatch
+
+
+def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+    p = sub.add_parser(
+        "calibrate", help="hand-eye calibration T_flange_cam from blob samples",
+        description="Calibrate the flange-mounted camera (T_flange_cam: camera points into the flange "
+        "frame, metres) from a blob seen from several flange poses. No initial guess is needed.",
+    )  # fmt: skip
+    src = p.add_argument_group("samples (one of)")
+    src.add_argument("--poses", help="lab poses.txt: blob x,y,z per line, camera frame, metres")
+    src.add_argument("--tfs", help="lab tfs.txt: flange poses (translation + rotation x y z w blocks)")
+    src.add_argument("--joints", help="Panda joint positions, 7 per line (radians), paired with --poses")
+    src.add_argument("--samples", help="CSV or JSON sample file")
+    src.add_argument("--mcap", help="MCAP recording with blob observations and flange poses")
+    src.add_argument(
+        "--from-clouds", action="store_true", help="with --mcap: extract the blob from the clouds"
+    )
+    p.add_argument("--guess", nargs=7, type=float, metavar=("X", "Y", "Z", "QX", "QY", "QZ", "QW"),
+                   help="optional initial T_flange_cam (never required)")  # fmt: skip
+    p.add_argument("--loss", default="linear", choices=("linear", "huber", "cauchy"))
+    p.add_argument("--noise", default="depth", choices=("depth", "uniform"), help="noise model (weights)")
+    p.add_argument("--keep-outliers", action="store_true", help="report the fit with every sample")
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.add_argument("--yaml", metavar="OUT", help="also write the result as YAML")
+    p.add_argument("--plot", metavar="OUT.png", help="write the dissipation plot")
+    p.set_defaults(func=run_calibrate)
+
+    s = sub.add_parser("calibrator", help="online calibrator service (Zenoh)")
+    s.add_argument("--state-dir", default="./var/calibrator", help="append-only sample log and saved results")
+    s.add_argument("--from-clouds", action="store_true", help="also extract the blob from camera clouds")
+    s.add_argument("--tolerance-ms", type=float, default=50.0, help="pose/blob stamp tolerance")
+    s.add_argument("--min-samples", type=int, default=3, help="samples before the first solve")
+    s.add_argument("--robot", default=None, help="robot id (default $SOFIA_ROBOT or panda)")
+    add_zenoh_args(s)
+    s.set_defaults(func=run_service)
+
+
+def load_samples(args: argparse.Namespace) -> tuple[np.ndarray, np.ndarray]:
+    """(p_cam, T_base_flange) from whichever source the arguments name."""
+    from .lab_io import read_lab, read_poses
+    from .samples_io import read_joints, read_samples
+
+    if args.mcap:
+        from .mcap_input import read_mcap
+
+        m = read_mcap(args.mcap, from_clouds=args.from_clouds)
+        for r in m.rejected:
+            print(f"skipped: {r}", file=sys.stderr)
+        return m.p_cam, m.T_base_flange
+    if args.samples:
+        return read_samples(args.samples)
+    if args.poses and args.tfs:
+        return read_lab(args.poses, args.tfs)
+    if args.poses and args.joints:
+        p_cam, T = read_poses(args.poses), read_joints(args.joints)
+        if len(p_cam) != len(T):
+            raise InputMismatch(
+                f"{args.poses} has {len(p_cam)} blob positions but {args.joints} has {len(T)} joint rows"
+            )
+        return p_cam, T
+    raise InputMismatch("give --poses with --tfs or --joints, or --samples FILE, or --mcap FILE")
+
+
+def run_calibrate(args: argparse.Namespace) -> int:
+    from .calibrate import calibrate
+    from .formats import to_message, to_yaml
+
+    p_cam, T = load_samples(args)
+    guess = None
+    if args.guess:
+        g = np.array(args.guess)
+        guess = make_transform(g[:3], g[3:])
+    cal = calibrate(
+        p_cam, T, guess=guess, sigma=args.noise, loss=args.loss, exclude_outliers=not args.keep_outliers
+    )
+    msg = to_message(cal)
+    if args.yaml:
+        with open(args.yaml, "w") as f:
+            f.write(to_yaml(msg))
+    if args.plot:
+        from .plot import plot_calibration
+
+        plot_calibration(cal, args.plot)
+    if args.json:
+        print(json.dumps(msg.model_dump(mode="json")))
+    else:
+        print(to_yaml(msg), end="")
+    return 0 if cal.passes else 1
+
+
+def run_service(args: argparse.Namespace) -> int:
+    from .service import main
+
+    return main(args)

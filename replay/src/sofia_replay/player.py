@@ -132,6 +132,10 @@ class Player:
             (start_ns - self.summary.start_ns) / 1e9, (end_ns - self.summary.start_ns) / 1e9,
             "as fast as possible" if options.fast else f"rate x{options.rate}", options.congestion,
         )  # fmt: skip
+        for topic in sorted(set(options.topic_map) - set(self.summary.topics)):
+            log.warning(
+                "--map %s: no such topic in %s (topics: %s)", topic, self.path, sorted(self.summary.topics)
+            )
         for topic, ts in sorted(self.summary.topics.items()):
             if options.topics is None or topic in options.topics:
                 self._publisher(topic, ts.schema_name)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import subprocess
 from collections.abc import Callable
 from pathlib import Path
 
@@ -10,7 +11,7 @@ from sofia_gripper import GripperConfig, save_config
 from sofia_gripper.cli import build_command, gripper_config
 from sofia_schemas.cli import build_parser
 
-from ..conftest import Proc
+from ..conftest import SOFIA, Proc
 from .conftest import wait_until
 
 
@@ -44,3 +45,29 @@ def test_emulate_command_serves_a_tty(sofia_proc: Callable[..., Proc], tmp_path:
     finally:
         port.closePort()
     assert proc.stop() == 0
+
+
+def test_emulator_console_injects_faults(tmp_path: Path) -> None:
+    link = tmp_path / "ttyCON"
+    proc = subprocess.Popen(
+        [SOFIA, "gripper", "emulate", "--baud", "1000000", "--link", str(link)],
+        stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True,
+    )  # fmt: skip
+    assert proc.stdin and proc.stdout
+    try:
+        assert proc.stdout.readline().strip() == str(link)
+        port = PortHandler(str(link))
+        assert port.setBaudRate(1_000_000)
+        ph = PacketHandler(2.0)
+        assert ph.ping(port, 1) == (311, COMM_SUCCESS, 0)
+        for line in ("overload", "bogus 1"):
+            proc.stdin.write(line + "\n")
+            proc.stdin.flush()
+        assert proc.stdout.readline().strip() == "ok: overload"
+        assert proc.stdout.readline().startswith("unknown command 'bogus 1'")
+        assert ph.ping(port, 1) == (311, COMM_SUCCESS, 0x80)  # alert bit: hardware error
+        assert ph.read1ByteTxRx(port, 1, 70)[0] == 1 << 5  # Hardware Error Status: overload
+        port.closePort()
+    finally:
+        proc.terminate()
+        assert proc.wait(10) == 0

@@ -5,7 +5,7 @@ from __future__ import annotations
 import time
 
 import pytest
-from sofia_gripper import Emulator, Gripper, NotReady
+from sofia_gripper import Emulator, Gripper, GripperError, NotReady
 from sofia_schemas.messages import GripperCommand as Cmd
 
 from .conftest import make_config, wait_until
@@ -122,5 +122,24 @@ def test_wrong_model_is_refused(emulator: Emulator) -> None:
     try:
         time.sleep(0.3)
         assert not g.state.connected and "model 1020, expected MX-64 model 311" in (g.state.error or "")
+    finally:
+        g.close()
+
+
+def test_protocol1_overload_is_reported_and_torque_on_rearms(emulator_p1: Emulator) -> None:
+    g = Gripper(make_config(emulator_p1.path, protocol=1))
+    g.start()
+    try:
+        wait_until(lambda: g.state.connected, 3.0, "P1 connected")
+        emulator_p1.inject_overload()
+        wait_until(lambda: g.state.status == "error", 2.0, "P1 error state")
+        assert g.state.hardware_error == ["overload"] and "send torque on" in (g.state.error or "")
+        with pytest.raises(NotReady, match="overload"):
+            g.execute(Cmd(action="open"))
+        with pytest.raises(GripperError, match="no Reboot instruction"):
+            g.execute(Cmd(action="reboot"))
+        assert g.execute(Cmd(action="torque", enable=True)).ok
+        wait_until(lambda: g.state.status == "ok", 2.0, "P1 re-armed")
+        assert g.execute(Cmd(action="close")).ok
     finally:
         g.close()

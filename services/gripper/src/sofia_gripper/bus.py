@@ -114,6 +114,8 @@ class DxlBus:
 
     def reboot(self) -> None:
         if self.protocol == 1:
-            raise CommFailed("reboot", "Protocol 1.0 MX-64 firmware has no Reboot instruction")
+            raise CommFailed(
+                "reboot", "Protocol 1.0 MX-64 firmware has no Reboot instruction; send torque on to re-arm"
+            )
         result, error = self._call("reboot", self.ph.reboot, self.dxl_id)
         self._check("reboot", result, error & ~ALERT_BIT_P2)

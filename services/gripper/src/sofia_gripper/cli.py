@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+import threading
 import time
 from pathlib import Path
 from typing import Any
@@ -49,7 +50,11 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
         s.add_argument("--object-width", type=float, metavar="MM", help="emulated object width (--emulate)")
         s.set_defaults(func=_serve)
 
-    e = gs.add_parser("emulate", help="run an MX-64 emulator on a pseudo-terminal (prints the tty path)")
+    e = gs.add_parser(
+        "emulate",
+        help="run an MX-64 emulator on a pseudo-terminal (prints the tty path; faults from stdin: "
+        "object MM|none, overheat, overload, noreply on|off, corrupt on|off, unplug, replug, clear)",
+    )
     e.add_argument("--object-width", type=float, metavar="MM", help="object between the fingers")
     e.add_argument("--protocol", type=float, choices=(1.0, 2.0), default=2.0)
     e.add_argument("--baud", type=int, default=57600)
@@ -96,6 +101,15 @@ def _emulate(args: argparse.Namespace) -> int:
     emu = Emulator(int(args.protocol), args.baud, args.dxl_id, args.object_width, link_path=args.link)  # type: ignore[arg-type]
     stop = StopFlag()
     print(emu.start(), flush=True)
+
+    def console() -> None:  # fault injection from stdin, e.g. "overload", "object 40", "unplug"
+        for line in sys.stdin:
+            try:
+                print(emu.control(line), flush=True)
+            except ValueError as e:
+                print(f"bad value in {line.strip()!r}: {e}", flush=True)
+
+    threading.Thread(target=console, daemon=True).start()
     stop.wait()
     emu.stop()
     return 0

@@ -76,6 +76,7 @@ def _reboot(g: Gripper, cmd: GripperCommand, t0: float) -> GripperResult:
             time.sleep(0.05)
     g.grasped = False
     g.configure()
+    g.connected, g.error = True, None
     state = g.next_state(0.5) or g.state
     state = g.next_state(0.5) or state
     if state.hardware_error:
@@ -128,7 +129,7 @@ def _motion(g: Gripper, cmd: GripperCommand, t0: float) -> GripperResult:
     target, current = _target(g, cmd), _current(g, cmd)
     _require_connected(g)
     if g.hw_error:
-        raise NotReady(f"hardware error {g.hw_error}; send reboot")
+        raise NotReady(f"hardware error {g.hw_error}; {g.recover_hint}")
     if g.overheated:
         raise NotReady(f"temperature above {g.config.max_temperature_c:g} C")
     if not g.torque:

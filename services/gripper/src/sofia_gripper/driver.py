@@ -135,6 +135,11 @@ class Gripper:
             b.write("bus_watchdog", max(1, c.watchdog_ms // WATCHDOG_UNIT_MS))
         self.torque, self.hw_error, self.overheated = True, [], False
 
+    @property
+    def recover_hint(self) -> str:
+        """How to clear a hardware error: Reboot (Protocol 2.0), torque on again (Protocol 1.0)."""
+        return "send reboot" if self.config.protocol == 2 else "send torque on"
+
     # --- writes used by commands -----------------------------------------
     def set_current(self, current_ma: float) -> None:
         current_ma = min(current_ma, self.current_limit_ma)
@@ -164,8 +169,14 @@ class Gripper:
         while not self._stop.is_set():
             if self.connected:
                 self._cycle()
-            elif time.monotonic() - self._last_attempt >= self.config.reconnect_period_s:
-                self._reconnect()
+            elif (
+                time.monotonic() - self._last_attempt >= self.config.reconnect_period_s
+                and self.command_lock.acquire(blocking=False)
+            ):  # a running command (e.g. a reboot) owns the line until it returns
+                try:
+                    self._reconnect()
+                finally:
+                    self.command_lock.release()
             else:
                 self._publish(self._disconnected_state())
             t_next = max(t_next + period, time.monotonic() - period)
@@ -223,7 +234,7 @@ class Gripper:
         current_ma = (get("present_current") - u.current_offset) * u.current_ma
         error = self.error
         if self.hw_error:
-            error = f"hardware error: {', '.join(self.hw_error)}; send reboot"
+            error = f"hardware error: {', '.join(self.hw_error)}; {self.recover_hint}"
         elif self.overheated:
             error = f"temperature above {self.config.max_temperature_c:g} C: motion stopped"
         status: Literal["ok", "moving", "error"] = "error" if error else ("moving" if get("moving") else "ok")

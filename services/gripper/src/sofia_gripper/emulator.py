@@ -141,6 +141,27 @@ class Emulator:
                 self._open_pty()
         log.info("emulator plugged in again on %s", self.path)
 
+    def control(self, line: str) -> str:
+        """One console command (``sofia gripper emulate`` reads them from stdin): ``object MM|none``,
+        ``overheat``, ``overload``, ``noreply on|off``, ``corrupt on|off``, ``unplug``, ``replug``,
+        ``clear``. Returns what was done, or what was wrong with the line."""
+        word, *rest = line.split() or [""]
+        arg = rest[0] if rest else ""
+        if word == "object" and arg:
+            self.set_object(None if arg == "none" else float(arg))
+        elif word in ("noreply", "corrupt") and arg in ("on", "off"):
+            setattr(self, "no_reply" if word == "noreply" else "corrupt", arg == "on")
+        elif word in ("overheat", "overload", "unplug", "replug", "clear"):
+            getattr(
+                self,
+                {"overheat": "inject_overheat", "overload": "inject_overload", "clear": "clear_faults"}.get(
+                    word, word
+                ),
+            )()
+        else:
+            return f"unknown command {line.strip()!r}: object MM|none, overheat, overload, noreply on|off, corrupt on|off, unplug, replug, clear"
+        return f"ok: {line.strip()}"
+
     def snapshot(self) -> dict[str, float]:
         """Motor state for tests: position (ticks), velocity, current (mA), temperature, torque."""
         with self.lock:

@@ -124,6 +124,10 @@ class Mx64Servo:
         if error:
             return error
         self.mem[address : address + len(data)] = data
+        if not p2 and "torque_enable" in names and self.get("torque_enable"):
+            self.hw_error &= (
+                P1_OVERHEAT if self.temperature_c >= self.get("temperature_limit") else 0
+            )  # re-armed
         if "bus_watchdog" in names:
             self.t_last_packet = time.monotonic()
         return 0

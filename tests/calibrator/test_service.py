@@ -1,0 +1,148 @@
+"""``sofia calibrator`` as a separate process over Zenoh: online samples, queries, bad input, a
+kill and a restart that resumes from the append-only log."""
+
+from __future__ import annotations
+
+import json
+import threading
+import time
+from collections.abc import Callable, Iterator
+from pathlib import Path
+
+import numpy as np
+import pytest
+import zenoh
+from sofia_calibrator.simulate import make_problem
+from sofia_schemas.keys import ENCODING_JSON, Keys
+from sofia_schemas.messages import BlobObservation, CalibrationResult, FlangePose
+from sofia_schemas.rosmsg import encode_blob, encode_flange_pose
+from sofia_schemas.zenoh_config import open_session
+
+T0_NS = 1_700_000_000_000_000_000
+PERIOD_NS = 1_000_000_000
+
+
+@pytest.fixture
+def session() -> Iterator[zenoh.Session]:
+    with open_session() as s:
+        yield s
+
+
+def query(
+    session: zenoh.Session, key: str, payload: str | None = None, timeout: float = 5.0
+) -> tuple[bool, dict]:  # type: ignore[type-arg]
+    """(ok, JSON body) of the first reply to a query."""
+    for reply in session.get(key, payload=payload, timeout=timeout):
+        if reply.ok is not None:
+            return True, json.loads(reply.ok.payload.to_bytes())
+        return False, json.loads(reply.err.payload.to_bytes())
+    raise AssertionError(f"no reply to {key}")
+
+
+def wait_until_served(session: zenoh.Session, keys: Keys, timeout: float = 20.0) -> None:
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        if list(session.get(keys.calibrator_op("samples"), timeout=1.0)):
+            return
+        time.sleep(0.1)
+    raise AssertionError("calibrator queryables not reachable")
+
+
+def publish_sample(session: zenoh.Session, keys: Keys, k: int, p_cam: np.ndarray, T: np.ndarray,
+                   T_moving: np.ndarray | None = None) -> None:  # fmt: skip
+    """Poses 0.1 s before, at and after the blob stamp (still, unless ``T_moving`` is given), then the blob."""
+    stamp = T0_NS + k * PERIOD_NS
+    for dt, pose in ((-100_000_000, T), (0, T), (100_000_000, T if T_moving is None else T_moving)):
+        session.put(keys.flange_pose, encode_flange_pose(FlangePose.from_matrix(pose, stamp + dt)))
+    session.put(keys.blob, encode_blob(BlobObservation(stamp_ns=stamp, position=tuple(map(float, p_cam)))))  # type: ignore[arg-type]
+
+
+def wait_for(pred: Callable[[], bool], timeout: float = 20.0) -> None:
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        if pred():
+            return
+        time.sleep(0.05)
+    raise AssertionError("condition not met in time")
+
+
+def test_service_online_queries_errors_and_restart(
+    sofia_proc, session, robot_id: str, tmp_path: Path
+) -> None:  # type: ignore[no-untyped-def]
+    keys = Keys(robot_id)
+    state = tmp_path / "state"
+    proc = sofia_proc("calibrator", "--state-dir", str(state))
+    proc.wait_for_log("calibrator ready")
+    wait_until_served(session, keys)
+
+    results: list[CalibrationResult] = []
+    lock = threading.Lock()
+
+    def on_result(sample: zenoh.Sample) -> None:
+        with lock:
+            results.append(CalibrationResult.model_validate_json(sample.payload.to_bytes()))
+
+    sub = session.declare_subscriber(keys.calibration_result, on_result)
+    time.sleep(0.5)
+    pr = make_problem(8, np.random.default_rng(21))
+    for k in range(8):
+        publish_sample(session, keys, k, pr.p_cam[k], pr.T_base_flange[k])
+    moving = pr.T_base_flange[0].copy()
+    moving[:3, 3] += [0.05, 0.0, 0.0]
+    publish_sample(session, keys, 20, pr.p_cam[1], pr.T_base_flange[1], T_moving=moving)
+    # a malformed blob and a malformed pose: logged and dropped, the service keeps serving
+    session.put(keys.blob, b"\x00\x01garbage")
+    session.put(keys.flange_pose, b'{"stamp_ns": 1, "translation": [0, 0, "x"]}')
+
+    wait_for(lambda: bool(results) and results[-1].n_samples == 8)
+    proc.wait_for_log("the flange was moving")
+    last = results[-1]
+    assert np.abs(np.array(last.matrix) - pr.T_flange_cam).max() < 0.01
+    assert last.passes and last.sample_ids == list(range(8))
+
+    ok, body = query(session, keys.calibrator_op("result"))
+    assert ok and body["n_samples"] == 8 and len(body["matrix"]) == 4
+
+    # add and remove through queries
+    s = {"stamp_ns": 5, "p_cam": list(pr.p_cam[2]), "translation": list(pr.T_base_flange[2, :3, 3]),
+         "rotation_xyzw": [0.0, 0.0, 0.0, 1.0]}  # fmt: skip
+    ok, body = query(session, keys.calibrator_op("add"), json.dumps(s))
+    assert ok and body["samples"][0]["sample_id"] == 8
+    ok, body = query(session, keys.calibrator_op("remove"), json.dumps({"sample_ids": [8]}))
+    assert ok and [x["sample_id"] for x in body["samples"]] == list(range(8))
+
+    # bad input gets an error reply naming what was wrong
+    ok, body = query(session, keys.calibrator_op("add"), '{"p_cam": [0, 0, "nan"]}')
+    assert not ok and body["error"] == "ValidationError" and "p_cam" in body["message"]
+    ok, body = query(session, keys.calibrator_op("remove"), json.dumps({"sample_ids": [99]}))
+    assert not ok and "no sample with id 99" in body["message"]
+    ok, body = query(session, keys.calibrator_op("solve"), json.dumps({"loss": "l1"}))
+    assert not ok and "loss must be one of" in body["message"]
+    ok, body = query(session, keys.calibrator_op("solve"), json.dumps({"loss": "huber", "noise": "uniform"}))
+    assert ok and body["n_samples"] == 8
+
+    ok, body = query(session, keys.calibrator_op("save"))
+    assert ok and all(Path(f).is_file() for f in body["files"])
+    assert "panda_link8 panda_camera" in (state / "camera_static_transform.launch").read_text()
+
+    # a crash loses nothing: the restarted calibrator resumes and publishes the same result
+    proc.kill()
+    log_lines = (state / "samples.jsonl").read_text().splitlines()
+    assert len(log_lines) == 10  # 8 + add + remove
+    with lock:
+        results.clear()
+    proc2 = sofia_proc("calibrator", "--state-dir", str(state))
+    proc2.wait_for_log("calibrator ready")
+    assert "resumed 8 samples" in proc2.log()
+    wait_until_served(session, keys)
+    ok, body = query(session, keys.calibrator_op("samples"))
+    assert ok and len(body["samples"]) == 8
+    ok, body = query(session, keys.calibrator_op("result"))
+    assert ok and np.abs(np.array(body["matrix"]) - np.array(last.matrix)).max() < 1e-9
+
+    ok, body = query(session, keys.calibrator_op("reset"))
+    assert ok and body["samples"] == []
+    ok, body = query(session, keys.calibrator_op("result"))
+    assert not ok and "no result yet" in body["message"]
+    sub.undeclare()
+    assert proc2.stop() == 0

@@ -148,12 +148,13 @@ def _wait(g: Gripper, cmd: GripperCommand, goal: int, current: float, t0: float)
     while True:
         state = g.next_state(0.5)
         now = time.monotonic()
-        if g.abort.is_set():
-            return _result(cmd, False, "stopped by a stop command", g.state, t0)
         if state is None or not state.connected:
             return _result(cmd, False, f"serial line lost ({g.error})", g.state, t0)
         if state.status == "error":
             return _result(cmd, False, state.error or "error", state, t0)
+        if g.abort.is_set():  # hold where we are, even if our goal was written after the stop's
+            g.bus.write("goal_position", state.position_ticks or goal)
+            return _result(cmd, False, "stopped by a stop command", state, t0)
         if now > deadline:
             g.bus.write("goal_position", state.position_ticks or goal)
             return _result(cmd, False, f"timeout after {cmd.timeout_s:g} s", state, t0)
@@ -170,7 +171,8 @@ def _wait(g: Gripper, cmd: GripperCommand, goal: int, current: float, t0: float)
         if cmd.action in ("grasp", "close") and squeezing:
             g.grasped = True
             return _result(cmd, True, "stalled", state.model_copy(update={"grasped": True}), t0, grasped=True)
-        return _result(cmd, cmd.action != "grasp", "stalled", state, t0, grasped=False)
+        blocked = f"blocked at {state.opening_mm or 0.0:.1f} mm before the goal (current {state.current_ma or 0.0:.0f} mA)"
+        return _result(cmd, False, blocked, state, t0, grasped=False)
 
 
 def _result(

@@ -1,0 +1,129 @@
+"""``sofia detect FILE...`` (for people) and ``sofia detector serve`` (the service)."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import sys
+from pathlib import Path
+
+from sofia_schemas import Board
+from sofia_schemas.keys import default_robot
+from sofia_schemas.messages import Detection
+from sofia_schemas.zenoh_config import ZenohOptions, add_zenoh_args
+
+from .detect import detect
+from .errors import DetectorError
+from .frames import load_transform_file
+from .readers import FileCloud, iter_file_clouds
+
+log = logging.getLogger("sofia.detect")
+
+
+def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+    d = sub.add_parser("detect", help="detect the objects on the board in cloud files")
+    d.add_argument("files", nargs="+", type=Path, metavar="FILE", help=".mcap, .pcd, .ply or .npy")
+    d.add_argument("--board", type=Path, help="board YAML/JSON (default: the package's board)")
+    d.add_argument("--json", action="store_true", help="one JSON object per cloud and line")
+    d.add_argument("--plot", type=Path, metavar="OUT.png", help="draw the board from above")
+    d.add_argument(
+        "--transform", type=Path, metavar="FILE",
+        help="T_flange_cam YAML/JSON: also detect in the camera-frame clouds of .mcap files",
+    )  # fmt: skip
+    d.set_defaults(func=_detect_files)
+
+    s = sub.add_parser("detector", help="the detector service")
+    ss = s.add_subparsers(dest="detector_cmd", required=True, metavar="ACTION")
+    serve = ss.add_parser("serve", help="run the detector service on Zenoh")
+    serve.add_argument("--board", type=Path, help="board YAML/JSON (default: the package's board)")
+    serve.add_argument(
+        "--transform", type=Path, metavar="FILE", help="T_flange_cam YAML/JSON (else the calibrator's)"
+    )
+    serve.add_argument("--robot", default=None, help="robot id (default $SOFIA_ROBOT or panda)")
+    add_zenoh_args(serve)
+    serve.set_defaults(func=_serve)
+
+
+def _board(path: Path | None) -> Board:
+    return Board.from_file(path) if path else Board.default()
+
+
+def _serve(args: argparse.Namespace) -> int:
+    from .service import ServiceConfig, main
+
+    config = ServiceConfig(
+        board=_board(args.board), robot=args.robot or default_robot(), zenoh=ZenohOptions.from_args(args),
+        transform_file=args.transform,
+    )  # fmt: skip
+    return main(config)
+
+
+def _summary(fc: FileCloud, det: Detection) -> str:
+    head = f"{fc.source}[{fc.index}] {det.status}: {len(det.objects)} object(s) in {det.timings_ms.get('total_ms', 0):.1f} ms"
+    if det.detail:
+        head += f" ({det.detail})"
+    lines = [head]
+    for obj in det.objects:
+        c, m, e = obj.center, obj.centroid, obj.extents
+        lines.append(
+            f"  field {obj.field} {'allowed' if obj.allowed else 'NOT allowed'}: "
+            f"centre ({c[0]:.4f}, {c[1]:.4f}, {c[2]:.4f}) m, centroid ({m[0]:.4f}, {m[1]:.4f}, {m[2]:.4f}) m, "
+            f"extents {e[0] * 1e3:.0f} x {e[1] * 1e3:.0f} x {e[2] * 1e3:.0f} mm, "
+            f"yaw {obj.yaw * 57.29578:.1f} deg, {obj.n_points} points, confidence {obj.confidence:.2f}"
+        )
+    return "\n".join(lines)
+
+
+def _record(path: Path, fc: FileCloud, det: Detection) -> dict[str, object]:
+    return {
+        "file": str(path),
+        "source": fc.source,
+        "index": fc.index,
+        "stamp_ns": det.stamp_ns,
+        "status": det.status,
+        "objects": [o.model_dump(mode="json") for o in det.objects],
+        "timings_ms": det.timings_ms,
+        "board_normal": det.board_normal,
+        "board_center": det.board_center,
+        "transform": det.transform,
+        "detail": det.detail,
+    }
+
+
+def _plot_path(out: Path, n: int, total_hint: int) -> Path:
+    return out if total_hint == 1 and n == 0 else out.with_name(f"{out.stem}-{n}{out.suffix or '.png'}")
+
+
+def _detect_files(args: argparse.Namespace) -> int:
+    board = _board(args.board)
+    T_flange_cam = load_transform_file(args.transform) if args.transform else None
+    transform_name = f"file {args.transform}" if args.transform else None
+    failures, n_clouds = 0, 0
+    single = len(args.files) == 1 and args.files[0].suffix.lower() != ".mcap"
+    for path in args.files:
+        try:
+            for fc in iter_file_clouds(path, board.frame_id, T_flange_cam, transform_name):
+                det = detect(fc.points, board, stamp_ns=fc.stamp_ns, source=fc.source)
+                if fc.transform:
+                    det = det.model_copy(update={"transform": fc.transform})
+                rec = _record(path, fc, det)
+                print(json.dumps(rec) if args.json else _summary(fc, det), flush=True)
+                if args.plot:
+                    from .plot import plot_detection
+
+                    out = _plot_path(args.plot, n_clouds, 1 if single else 2)
+                    plot_detection(
+                        fc.points, board, det, out, title=f"{fc.source} [{fc.index}]: {det.status}"
+                    )
+                    log.info("plot written to %s", out)
+                n_clouds += 1
+        except DetectorError as e:
+            failures += 1
+            print(f"sofia detect: error: {e}", file=sys.stderr)
+    if n_clouds == 0 and not failures:
+        print(
+            "sofia detect: no base-frame clouds found (camera-frame clouds need --transform)", file=sys.stderr
+        )
+        return 1
+    return 1 if failures else 0

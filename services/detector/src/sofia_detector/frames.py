@@ -1,0 +1,114 @@
+"""Camera-frame clouds into the base frame: the flange->camera transform and the flange pose history.
+
+``T_base_cam = T_base_flange(stamp) @ T_flange_cam``. ``T_flange_cam`` comes from the calibrator
+(a :class:`~sofia_schemas.CalibrationResult`) or from a file; ``T_base_flange`` at the cloud's stamp
+is interpolated from the recent flange poses.
+"""
+
+from __future__ import annotations
+
+import json
+import threading
+from bisect import bisect_left
+from collections import deque
+from pathlib import Path
+
+import numpy as np
+import yaml
+from scipy.spatial.transform import Rotation, Slerp
+from sofia_schemas.transforms import as_transforms, invert, make_transform
+
+from .errors import BadTransformFile, TransformUnavailable
+from .plane import change_frame, coords
+
+DEFAULT_TOLERANCE_NS = 50_000_000  # a flange pose further than this from the cloud's stamp is not used
+
+
+def parse_transform(data: object, where: str) -> np.ndarray:
+    """(4, 4) ``T_flange_cam`` from a mapping with ``matrix`` (4x4) or ``translation`` and
+    ``quaternion_xyzw`` (a CalibrationResult qualifies). Raises BadTransformFile naming ``where``."""
+    if not isinstance(data, dict):
+        raise BadTransformFile(where, f"expected a mapping, got {type(data).__name__}")
+    try:
+        if "matrix" in data:
+            return as_transforms(np.array(data["matrix"], dtype=np.float64), "matrix", tol=1e-4)
+        if "translation" in data and "quaternion_xyzw" in data:
+            return make_transform(
+                np.array(data["translation"], float), np.array(data["quaternion_xyzw"], float)
+            )
+    except (ValueError, TypeError) as e:
+        raise BadTransformFile(where, str(e)) from None
+    raise BadTransformFile(where, f"needs 'matrix' or 'translation' + 'quaternion_xyzw', has {sorted(data)}")
+
+
+def load_transform_file(path: str | Path) -> np.ndarray:
+    """(4, 4) ``T_flange_cam`` from a YAML or JSON file (see :func:`parse_transform`)."""
+    path = Path(path)
+    try:
+        text = path.read_text()
+    except OSError as e:
+        raise BadTransformFile(path, f"cannot be read: {e.strerror or e}") from None
+    try:
+        data = json.loads(text) if path.suffix.lower() == ".json" else yaml.safe_load(text)
+    except (ValueError, yaml.YAMLError) as e:
+        raise BadTransformFile(
+            path, f"is not valid {'JSON' if path.suffix == '.json' else 'YAML'}: {e}"
+        ) from None
+    return parse_transform(data, str(path))
+
+
+def camera_to_base(points_cam: np.ndarray, T_base_cam: np.ndarray) -> np.ndarray:
+    """Camera-frame points into the base frame.
+
+    points_cam: (..., 3) float, camera optical frame, metres (NaN kept). T_base_cam: (4, 4).
+    Returns (..., 3) float32 points_base (a strided view of a (3, ...) array).
+    """
+    return np.moveaxis(change_frame(coords(points_cam), invert(T_base_cam)), 0, -1)
+
+
+class FlangeHistory:
+    """The last ``maxlen`` flange poses, looked up by stamp (thread-safe)."""
+
+    def __init__(self, maxlen: int = 400, tolerance_ns: int = DEFAULT_TOLERANCE_NS) -> None:
+        self._poses: deque[tuple[int, np.ndarray]] = deque(maxlen=maxlen)
+        self._lock = threading.Lock()
+        self.tolerance_ns = tolerance_ns
+
+    def add(self, stamp_ns: int, T_base_flange: np.ndarray) -> None:
+        with self._lock:
+            if self._poses and stamp_ns < self._poses[-1][0]:
+                items = sorted([*self._poses, (stamp_ns, T_base_flange)], key=lambda p: p[0])
+                self._poses.clear()
+                self._poses.extend(items)
+            else:
+                self._poses.append((stamp_ns, T_base_flange))
+
+    def __len__(self) -> int:
+        return len(self._poses)
+
+    def at(self, stamp_ns: int) -> np.ndarray:
+        """(4, 4) ``T_base_flange`` at ``stamp_ns``: interpolated between the poses around it when
+        both are within the tolerance, else the nearest within it. Raises TransformUnavailable."""
+        with self._lock:
+            poses = list(self._poses)
+        if not poses:
+            raise TransformUnavailable(f"no flange pose received yet (cloud stamp {stamp_ns})")
+        stamps = [p[0] for p in poses]
+        i = bisect_left(stamps, stamp_ns)
+        if i < len(stamps) and stamps[i] == stamp_ns:
+            return poses[i][1]
+        if 0 < i < len(stamps) and stamps[i] - stamps[i - 1] <= 2 * self.tolerance_ns:
+            (t0, T0), (t1, T1) = poses[i - 1], poses[i]
+            s = (stamp_ns - t0) / (t1 - t0)
+            R = Slerp([0.0, 1.0], Rotation.from_matrix(np.stack([T0[:3, :3], T1[:3, :3]])))(s).as_matrix()
+            T = np.eye(4)
+            T[:3, :3], T[:3, 3] = R, (1 - s) * T0[:3, 3] + s * T1[:3, 3]
+            return T
+        near = min((j for j in (i - 1, i) if 0 <= j < len(stamps)), key=lambda j: abs(stamps[j] - stamp_ns))
+        gap = abs(stamps[near] - stamp_ns)
+        if gap > self.tolerance_ns:
+            raise TransformUnavailable(
+                f"nearest flange pose is {gap / 1e6:.1f} ms from the cloud stamp {stamp_ns} "
+                f"(tolerance {self.tolerance_ns / 1e6:.1f} ms)"
+            )
+        return poses[near][1]

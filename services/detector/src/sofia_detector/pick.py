@@ -1,0 +1,71 @@
+"""Top-down pick of a detected object: flange poses for the grasp and the pre-grasp, and the opening.
+
+Convention: the flange z axis points down (towards the board) and the fingers close along the
+flange y axis, across the object's width; the flange x axis lies along the object's length.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from sofia_schemas.messages import DetectedObject, Detection, PickTarget
+from sofia_schemas.transforms import matrix_to_quat_xyzw
+
+
+@dataclass(frozen=True)
+class PickParams:
+    """fingertip_offset: flange -> fingertip distance along the flange z axis, metres.
+    pregrasp_height: pre-grasp pose above the grasp, metres. margin_mm: added to the object width.
+    max_opening_mm: the gripper's widest opening (the opening is clipped to it).
+    yaw_offset: rotation of the fingers about the flange z axis from the flange y axis, radians.
+    """
+
+    fingertip_offset: float = 0.20
+    pregrasp_height: float = 0.10
+    margin_mm: float = 20.0
+    max_opening_mm: float | None = None
+    yaw_offset: float = 0.0
+
+
+def R_base_flange_down(yaw: float) -> np.ndarray:
+    """(3, 3) flange orientation pointing down with its x axis at ``yaw`` about the base z axis.
+
+    Columns: x = (cos, sin, 0), y = (sin, -cos, 0), z = (0, 0, -1) (a rotation: det = +1).
+    """
+    c, s = np.cos(yaw), np.sin(yaw)
+    return np.array([[c, s, 0.0], [s, -c, 0.0], [0.0, 0.0, -1.0]])
+
+
+def pick_target(
+    obj: DetectedObject, stamp_ns: int, frame_id: str = "panda_link0", params: PickParams | None = None
+) -> PickTarget:
+    """The top-down pick of ``obj`` (base frame, metres)."""
+    params = params or PickParams()
+    yaw = float(obj.yaw)
+    R = R_base_flange_down(yaw + params.yaw_offset)
+    center = np.asarray(obj.center, dtype=np.float64)
+    grasp = center - R[:, 2] * params.fingertip_offset  # fingertips at the centre
+    pregrasp = grasp + np.array([0.0, 0.0, params.pregrasp_height])
+    width_mm = float(min(obj.extents[0], obj.extents[1])) * 1e3
+    opening = width_mm + params.margin_mm
+    if params.max_opening_mm is not None:
+        opening = min(opening, params.max_opening_mm)
+    q = matrix_to_quat_xyzw(R)
+    return PickTarget(
+        stamp_ns=stamp_ns, frame_id=frame_id,
+        object_center=tuple(float(v) for v in center),  # type: ignore[arg-type]
+        grasp_translation=tuple(float(v) for v in grasp),  # type: ignore[arg-type]
+        pregrasp_translation=tuple(float(v) for v in pregrasp),  # type: ignore[arg-type]
+        rotation_xyzw=tuple(float(v) for v in q),  # type: ignore[arg-type]
+        yaw=yaw, opening_mm=round(opening, 2), field=obj.field, object_width_mm=round(width_mm, 2),
+        fingertip_offset_m=params.fingertip_offset, pregrasp_height_m=params.pregrasp_height,
+    )  # fmt: skip
+
+
+def first_pick(detection: Detection, params: PickParams | None = None) -> PickTarget | None:
+    """The pick of the first object on an allowed (red) field, or None when there is none."""
+    for obj in detection.objects:
+        if obj.allowed:
+            return pick_target(obj, detection.stamp_ns, detection.frame_id, params)
+    return None

@@ -1,0 +1,108 @@
+"""Point clouds from files: MCAP recordings, PCD (ASCII or binary), PLY and NumPy ``.npy``."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from sofia_replay import iter_clouds, iter_flange_poses
+from sofia_replay.errors import RecordingError
+from sofia_schemas.keys import TOPIC_FLANGE_POSE
+
+from .errors import TransformUnavailable, UnreadableFile
+from .frames import FlangeHistory, camera_to_base
+
+SUFFIXES = (".mcap", ".pcd", ".ply", ".npy")
+
+
+@dataclass(frozen=True)
+class FileCloud:
+    """One cloud of a file: points (N, 3) or (H, W, 3) in ``frame_id``; ``index`` counts from 0."""
+
+    index: int
+    points: np.ndarray
+    stamp_ns: int
+    frame_id: str
+    source: str
+    transform: str | None = None
+
+
+def _open3d_points(path: Path, magic: bytes) -> np.ndarray:
+    import open3d as o3d
+
+    with path.open("rb") as f:
+        head = f.read(4096)
+    if magic not in head:
+        raise UnreadableFile(path, f"not a {path.suffix[1:].upper()} file (no {magic.decode()!r} header)")
+    pcd = o3d.io.read_point_cloud(path, remove_nan_points=False, remove_infinite_points=False)
+    points = np.asarray(pcd.points)
+    if points.shape[0] == 0 and b"POINTS 0" not in head and b"vertex 0" not in head:
+        raise UnreadableFile(path, "Open3D read no points from it (corrupt or unsupported fields)")
+    return points
+
+
+def _npy_points(path: Path) -> np.ndarray:
+    try:
+        arr = np.load(path, allow_pickle=False)
+    except (ValueError, OSError) as e:
+        raise UnreadableFile(path, f"not a NumPy .npy array: {e}") from None
+    if arr.dtype.names and {"x", "y", "z"} <= set(arr.dtype.names):
+        arr = np.stack([arr["x"], arr["y"], arr["z"]], axis=-1)
+    return arr
+
+
+def iter_file_clouds(
+    path: str | Path, frame_id: str, T_flange_cam: np.ndarray | None = None, transform_name: str | None = None
+) -> Iterator[FileCloud]:
+    """Every cloud of ``path``.
+
+    ``.pcd``/``.ply``/``.npy`` hold one cloud, taken to be in ``frame_id``. ``.mcap``: every
+    PointCloud2 in ``frame_id``; clouds in another frame (the camera) are mapped into ``frame_id``
+    with the recorded flange pose at their stamp and ``T_flange_cam`` (4, 4) when given, and
+    skipped otherwise. Raises UnreadableFile for missing or malformed files.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise UnreadableFile(path, "no such file")
+    suffix = path.suffix.lower()
+    if suffix not in SUFFIXES:
+        raise UnreadableFile(path, f"unknown cloud format {suffix!r}; expected one of {SUFFIXES}")
+    if suffix == ".npy":
+        yield FileCloud(0, _npy_points(path), 0, frame_id, str(path))
+        return
+    if suffix in (".pcd", ".ply"):
+        yield FileCloud(
+            0, _open3d_points(path, b"FIELDS" if suffix == ".pcd" else b"ply"), 0, frame_id, str(path)
+        )
+        return
+    try:
+        yield from _mcap_clouds(path, frame_id, T_flange_cam, transform_name)
+    except RecordingError as e:
+        raise UnreadableFile(path, str(e)) from None
+
+
+def _mcap_clouds(
+    path: Path, frame_id: str, T_flange_cam: np.ndarray | None, transform_name: str | None
+) -> Iterator[FileCloud]:
+    flange: FlangeHistory | None = None
+    index = 0
+    for topic, _log_ns, cloud in iter_clouds(path):
+        source = f"{path}:{topic}"
+        if cloud.frame_id == frame_id or not cloud.frame_id:
+            yield FileCloud(index, cloud.xyz(), cloud.stamp_ns, frame_id, source)
+        elif T_flange_cam is not None:
+            if flange is None:
+                flange = FlangeHistory(maxlen=1_000_000)
+                for stamp_ns, pose in iter_flange_poses(path, TOPIC_FLANGE_POSE):
+                    flange.add(pose.stamp_ns or stamp_ns, pose.matrix())
+            try:
+                T_base_cam = flange.at(cloud.stamp_ns) @ T_flange_cam
+            except TransformUnavailable:
+                continue
+            points = camera_to_base(cloud.xyz(), T_base_cam)
+            yield FileCloud(index, points, cloud.stamp_ns, frame_id, source, transform_name)
+        else:
+            continue
+        index += 1

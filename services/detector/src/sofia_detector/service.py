@@ -1,0 +1,238 @@
+"""``sofia detector serve``: the detector on the bus.
+
+- subscribes ``Keys(robot).points`` (CDR PointCloud2, base frame) and ``Keys(robot).camera_points``
+  (camera frame: mapped with the flange pose at the cloud's stamp and ``T_flange_cam``);
+- publishes one JSON :class:`Detection` per processed cloud on ``Keys(robot).detections``, stamped
+  with the cloud's stamp, and a :class:`PickTarget` for its first allowed object on
+  ``Keys(robot).pick_target``;
+- queryable ``Keys(robot).detect``: a CDR PointCloud2 payload gets the detection of that cloud, an
+  empty one the detection of the latest cloud, a bad one an error reply;
+- ``Keys(robot).status("detector")``: :class:`ServiceStatus` every second, and queryable.
+
+Callbacks only hand data over: clouds to a latest-value slot (older unprocessed clouds are dropped
+and counted), queries to a queue; one worker thread detects.
+"""
+
+from __future__ import annotations
+
+import logging
+import queue
+import threading
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import zenoh
+from sofia_schemas import Board, pointcloud
+from sofia_schemas.keys import ENCODING_JSON, Keys
+from sofia_schemas.messages import CalibrationResult, Detection, ServiceStatus, now_ns
+from sofia_schemas.rosmsg import decode_flange_pose
+from sofia_schemas.service import LatestSlot, StopFlag, reply_error, reply_json, run_worker
+from sofia_schemas.zenoh_config import ZenohOptions, zenoh_config
+
+from .detect import detect
+from .errors import DetectorError, TransformUnavailable
+from .frames import FlangeHistory, camera_to_base, load_transform_file, parse_transform
+from .params import DetectorParams
+from .pick import PickParams, first_pick
+
+log = logging.getLogger("sofia.detector")
+STATUS_PERIOD_S = 1.0
+
+
+@dataclass
+class ServiceConfig:
+    board: Board
+    robot: str
+    zenoh: ZenohOptions
+    transform_file: Path | None = None
+    params: DetectorParams = field(default_factory=DetectorParams)
+    pick: PickParams = field(default_factory=PickParams)
+
+
+@dataclass(frozen=True)
+class CloudJob:
+    """Received cloud bytes: ``camera`` True for camera-frame clouds; ``key`` where they came from."""
+
+    payload: bytes
+    camera: bool
+    key: str
+
+
+class Detector:
+    """State and work of the service (no Zenoh declarations: those are in :func:`main`)."""
+
+    def __init__(self, config: ServiceConfig, publish: dict[str, zenoh.Publisher]) -> None:
+        self.config = config
+        self.board = config.board
+        self.publish = publish
+        self.slot: LatestSlot[CloudJob] = LatestSlot()
+        self.queries: queue.Queue[zenoh.Query] = queue.Queue()
+        self.flange = FlangeHistory()
+        self.T_flange_cam: np.ndarray | None = None
+        self.transform_name: str | None = None
+        self.transform_pinned = False
+        if config.transform_file is not None:
+            self.T_flange_cam = load_transform_file(config.transform_file)
+            self.transform_name = f"file {config.transform_file}"
+            self.transform_pinned = True
+        self.latest: Detection | None = None
+        self.counters = {"processed": 0, "errors": 0, "queries": 0, "query_errors": 0, "no_transform": 0}
+        self.last_error = ""
+        self.last_ms = 0.0
+        self._lock = threading.Lock()
+
+    # --- callbacks: hand over only -------------------------------------
+    def on_points(self, sample: zenoh.Sample) -> None:
+        self.slot.put(CloudJob(sample.payload.to_bytes(), False, str(sample.key_expr)))
+
+    def on_camera_points(self, sample: zenoh.Sample) -> None:
+        self.slot.put(CloudJob(sample.payload.to_bytes(), True, str(sample.key_expr)))
+
+    def on_flange_pose(self, sample: zenoh.Sample) -> None:
+        try:
+            pose = decode_flange_pose(sample.payload.to_bytes())
+        except ValueError as e:
+            self._error(f"flange pose: {e}")
+            return
+        self.flange.add(pose.stamp_ns, pose.matrix())
+
+    def on_calibration(self, sample: zenoh.Sample) -> None:
+        if self.transform_pinned:
+            return
+        try:
+            result = CalibrationResult.model_validate_json(sample.payload.to_bytes())
+            T = parse_transform({"matrix": result.matrix}, "calibration result")
+        except ValueError as e:
+            self._error(f"calibration result: {e}")
+            return
+        with self._lock:
+            self.T_flange_cam = T
+            self.transform_name = f"calibrator result {result.stamp_ns}"
+        log.info("using T_flange_cam from the calibrator (result %d)", result.stamp_ns)
+
+    def _error(self, message: str) -> None:
+        with self._lock:
+            self.counters["errors"] += 1
+            self.last_error = message
+        log.warning("%s", message)
+
+    # --- work -------------------------------------------------------------
+    def run(self, stop: StopFlag) -> None:
+        """Worker loop: queries first, then the newest cloud."""
+        while not stop.is_set():
+            try:
+                self.answer(self.queries.get(timeout=0.01))
+                continue
+            except queue.Empty:
+                pass
+            job = self.slot.take(timeout=0.02)
+            if job is not None:
+                self.process(job)
+
+    def detect_payload(self, payload: bytes, camera: bool, key: str) -> Detection:
+        """Decode a CDR PointCloud2 and detect. Raises ValueError subclasses on bad input."""
+        cloud = pointcloud.decode(payload)
+        points = cloud.xyz()
+        transform = None
+        if camera or (cloud.frame_id and cloud.frame_id != self.board.frame_id):
+            with self._lock:
+                T_flange_cam, transform = self.T_flange_cam, self.transform_name
+            if T_flange_cam is None:
+                raise TransformUnavailable(
+                    f"cloud in frame {cloud.frame_id!r} and no flange->camera transform: start with "
+                    "--transform FILE or run the calibrator"
+                )
+            points = camera_to_base(points, self.flange.at(cloud.stamp_ns) @ T_flange_cam)
+        t0 = time.perf_counter()
+        det = detect(points, self.board, self.config.params, stamp_ns=cloud.stamp_ns, source=key)
+        self.last_ms = (time.perf_counter() - t0) * 1e3
+        return det.model_copy(update={"transform": transform}) if transform else det
+
+    def process(self, job: CloudJob) -> None:
+        try:
+            det = self.detect_payload(job.payload, job.camera, job.key)
+        except TransformUnavailable as e:
+            with self._lock:
+                self.counters["no_transform"] += 1
+            self._error(str(e))
+            return
+        except ValueError as e:
+            self._error(f"cloud on {job.key}: {e}")
+            return
+        self.latest = det
+        self.counters["processed"] += 1
+        self.publish["detections"].put(det.to_json_bytes(), encoding=ENCODING_JSON)
+        pick = first_pick(det, self.config.pick)
+        if pick is not None:
+            self.publish["pick"].put(pick.to_json_bytes(), encoding=ENCODING_JSON)
+
+    def answer(self, query: zenoh.Query) -> None:
+        self.counters["queries"] += 1
+        with query:
+            payload = query.payload.to_bytes() if query.payload is not None else b""
+            try:
+                if payload:
+                    det = self.detect_payload(payload, False, f"query {query.key_expr}")
+                else:
+                    job = self.slot.take(timeout=0)
+                    if job is not None:
+                        self.process(job)
+                    if self.latest is None:
+                        raise DetectorError(
+                            f"no cloud received yet on {Keys(self.config.robot).points} or "
+                            f"{Keys(self.config.robot).camera_points}: send a PointCloud2 with the query"
+                        )
+                    det = self.latest
+                reply_json(query, det)
+            except ValueError as e:
+                self.counters["query_errors"] += 1
+                log.warning("detect query refused: %s", e)
+                reply_error(query, e)
+
+    def status(self) -> ServiceStatus:
+        with self._lock:
+            counters = dict(self.counters, received=self.slot.received, dropped=self.slot.dropped)
+            transform, detail = self.transform_name, self.last_error
+        return ServiceStatus(
+            service="detector", stamp_ns=now_ns(), state="ok", detail=detail, counters=counters,
+            info={
+                "board_frame": self.board.frame_id, "transform": transform,
+                "flange_poses": len(self.flange), "last_detect_ms": round(self.last_ms, 3),
+            },
+        )  # fmt: skip
+
+
+def main(config: ServiceConfig) -> int:
+    """Run the detector service until SIGINT/SIGTERM."""
+    stop = StopFlag()
+    keys = Keys(config.robot)
+    with zenoh.open(zenoh_config(config.zenoh)) as session:
+        publish = {
+            "detections": session.declare_publisher(keys.detections),
+            "pick": session.declare_publisher(keys.pick_target),
+            "status": session.declare_publisher(keys.status("detector")),
+        }
+        service = Detector(config, publish)
+        declared: list[Any] = [
+            session.declare_subscriber(keys.points, service.on_points),
+            session.declare_subscriber(keys.camera_points, service.on_camera_points),
+            session.declare_subscriber(keys.flange_pose, service.on_flange_pose),
+            session.declare_subscriber(keys.calibration_result, service.on_calibration),
+            session.declare_queryable(keys.detect, service.queries.put),
+            session.declare_queryable(keys.status("detector"), lambda q: reply_json(q, service.status())),
+        ]
+        worker = run_worker("detector", lambda: service.run(stop))
+        log.info(
+            "detector ready: clouds on %s and %s, detections on %s, queries on %s (transform: %s)",
+            keys.points, keys.camera_points, keys.detections, keys.detect, service.transform_name,
+        )  # fmt: skip
+        while not stop.wait(STATUS_PERIOD_S):
+            publish["status"].put(service.status().to_json_bytes(), encoding=ENCODING_JSON)
+        log.info("detector stopping")
+        worker.join(timeout=5.0)
+        for d in declared:
+            d.undeclare()
+    return 0

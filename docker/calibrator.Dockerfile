@@ -17,4 +17,4 @@ RUN useradd --create-home --uid 10001 --user-group sofia \
     && mkdir -p /var/lib/sofia/calibrator && chown -R sofia:sofia /var/lib/sofia
 USER sofia
 WORKDIR /var/lib/sofia/calibrator
-CMD ["sofia", "calibrator", "serve"]
+CMD ["sofia", "calibrator", "serve", "--state-dir", "/var/lib/sofia/calibrator"]

@@ -405,7 +405,9 @@ def test_mounts_state_volume_board_and_recordings() -> None:
                 assert source in named, f"{name}: volume {source} is not declared"
     calibrator = services()["calibrator"]
     state = next(v.split(":")[1] for v in calibrator["volumes"] if v.split(":")[0] in named)
-    assert calibrator["working_dir"].startswith(state), "the calibrator's files go to the named volume"
+    command = argv(calibrator["command"])
+    for path in (command[command.index("--state-dir") + 1], calibrator["working_dir"]):
+        assert path.startswith(state + "/"), f"the calibrator's {path} is outside the named volume {state}"
     assert "./config/board.yaml:/etc/sofia/board.yaml:ro" in services()["detector"]["volumes"]
     replay = services()["replay"]
     assert "./recordings:/recordings:ro" in replay["volumes"]

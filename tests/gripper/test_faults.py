@@ -109,7 +109,6 @@ def test_start_up_without_a_servo_keeps_retrying(tmp_path) -> None:  # type: ign
         try:
             wait_until(lambda: g.state.connected, 3.0, "connected once the servo appears")
         finally:
-            g.close()
             emu.stop()
     finally:
         g.close()

@@ -83,6 +83,7 @@ class Gripper:
                 self.bus.write("torque_enable", 0)
             except GripperError as e:
                 log.warning("torque off at close failed: %s", e)
+        self.connected = False
         self.bus.close()
 
     def connect(self) -> None:

@@ -322,17 +322,13 @@ def _header_bytes(
     return bytes(out)
 
 
-def encode(cloud: PointCloud2) -> bytearray:
-    """CDR bytes of ``cloud`` (one copy of the point buffer)."""
+def encode(cloud: PointCloud2) -> bytes:
+    """CDR bytes of ``cloud`` (one copy of the point buffer, straight into the output)."""
     head = _header_bytes(
         cloud.stamp_ns, cloud.frame_id, cloud.height, cloud.width, cloud.fields,
         cloud.point_step, cloud.row_step, len(cloud.data),
     )  # fmt: skip
-    out = bytearray(len(head) + len(cloud.data) + 1)
-    out[: len(head)] = head
-    out[len(head) : -1] = cloud.data
-    out[-1] = 1 if cloud.is_dense else 0
-    return out
+    return b"".join((head, cloud.data, b"\x01" if cloud.is_dense else b"\x00"))
 
 
 def encode_points(

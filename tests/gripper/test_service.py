@@ -102,5 +102,7 @@ def test_cli_commands_against_the_service(service: Proc, robot_id: str) -> None:
     assert sofia("open").returncode == 0
     state = sofia("state")
     assert state.returncode == 0 and json.loads(state.stdout)["state"]["connected"] is True
+    health = subprocess.run([SOFIA, "health", "gripper"], env=env, capture_output=True, text=True, timeout=60)
+    assert health.returncode == 0 and health.stdout.startswith("gripper: ok"), health.stdout + health.stderr
     invalid = sofia("grasp", "--force", "-3")
     assert invalid.returncode == 2 and "force_n" in invalid.stderr

@@ -59,7 +59,7 @@ def test_tfs_errors(tmp_path: Path, text: str, match: str) -> None:
 def test_mismatched_counts(tmp_path: Path) -> None:
     (tmp_path / "poses.txt").write_text("0.1,0.2,0.5\n0.1,0.2,0.5\n")
     (tmp_path / "tfs.txt").write_text(TFS_BLOCK)
-    with pytest.raises(InputMismatch, match="2 blob positions but .* has 1 flange poses"):
+    with pytest.raises(InputMismatch, match=r"2 blob positions but .* has 1 flange poses"):
         read_lab(tmp_path / "poses.txt", tmp_path / "tfs.txt")
 
 
@@ -92,7 +92,7 @@ def test_csv_and_json_errors(tmp_path: Path) -> None:
     (tmp_path / "b.json").write_text(
         '[{"p_cam": [0, 0, 1], "translation": [0, 0, 0], "rotation_xyzw": [0, 0, 0, 3]}]'
     )
-    with pytest.raises(ParseError, match="norm 3.0"):
+    with pytest.raises(ParseError, match=r"norm 3\.0"):
         read_json(tmp_path / "b.json")
     (tmp_path / "c.json").write_text("[{")
     with pytest.raises(ParseError, match="invalid JSON"):
@@ -115,7 +115,7 @@ def test_panda_fk_ready_pose() -> None:
 def test_panda_fk_errors() -> None:
     with pytest.raises(InputMismatch, match=r"shape \(n, 7\)"):
         panda_fk(np.zeros(6))
-    with pytest.raises(InputMismatch, match="joint 4 of sample 0 is 0.0000 rad, outside"):
+    with pytest.raises(InputMismatch, match=r"joint 4 of sample 0 is 0\.0000 rad, outside"):
         panda_fk(np.zeros(7))
     with pytest.raises(InputMismatch, match="non-finite"):
         panda_fk(np.full(7, np.nan))
@@ -138,7 +138,7 @@ def test_joints_file_drives_a_calibration(tmp_path: Path) -> None:
     cal = calibrate(p_cam, T)
     np.testing.assert_allclose(cal.T_flange_cam, T_fc, atol=1e-6)
     (tmp_path / "bad.txt").write_text("1 2 3\n")
-    with pytest.raises(ParseError, match="bad.txt:1: joint positions q1..q7 must be 7 numbers"):
+    with pytest.raises(ParseError, match=r"bad\.txt:1: joint positions q1\.\.q7 must be 7 numbers"):
         read_joints(tmp_path / "bad.txt")
 
 

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 import zenoh
 from sofia_calibrator.simulate import make_problem
-from sofia_schemas.keys import ENCODING_JSON, Keys
+from sofia_schemas.keys import Keys
 from sofia_schemas.messages import BlobObservation, CalibrationResult, FlangePose
 from sofia_schemas.rosmsg import encode_blob, encode_flange_pose
 from sofia_schemas.zenoh_config import open_session

@@ -12,6 +12,8 @@ from sofia_schemas.zenoh_config import add_zenoh_args
 
 from .errors import InputMismatch
 
+GUESS_QUAT_TOL = 0.01  # a typed guess quaternion within 1 % of unit norm is normalised
+
 
 def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     p = sub.add_parser(
@@ -29,7 +31,7 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
         "--from-clouds", action="store_true", help="with --mcap: extract the blob from the clouds"
     )
     p.add_argument("--guess", nargs=7, type=float, metavar=("X", "Y", "Z", "QX", "QY", "QZ", "QW"),
-                   help="optional initial T_flange_cam (never required)")  # fmt: skip
+                   help="optional initial T_flange_cam (never required); quaternion x y z w")  # fmt: skip
     p.add_argument("--loss", default="linear", choices=("linear", "huber", "cauchy"))
     p.add_argument("--noise", default="depth", choices=("depth", "uniform"), help="noise model (weights)")
     p.add_argument("--keep-outliers", action="store_true", help="report the fit with every sample")
@@ -82,6 +84,9 @@ def run_calibrate(args: argparse.Namespace) -> int:
     guess = None
     if args.guess:
         g = np.array(args.guess)
+        norm = float(np.linalg.norm(g[3:]))
+        if abs(norm - 1.0) < GUESS_QUAT_TOL:  # hand-typed: normalise small rounding errors
+            g[3:] /= norm
         guess = make_transform(g[:3], g[3:])
     cal = calibrate(
         p_cam, T, guess=guess, sigma=args.noise, loss=args.loss, exclude_outliers=not args.keep_outliers

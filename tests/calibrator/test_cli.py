@@ -1,0 +1,93 @@
+"""``sofia calibrate`` for people: the lab's files in, JSON / YAML / plot out, clear errors."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from sofia_calibrator import to_message, to_yaml
+from sofia_calibrator.calibrate import calibrate
+from sofia_calibrator.simulate import make_problem
+
+SOFIA = str(Path(sys.executable).with_name("sofia"))
+KEYS = ("matrix", "translation", "quaternion_xyzw", "rpy", "target_base", "spread_mm", "inliers", "outliers",
+        "std_translation_mm", "std_rotation_deg", "dissipation_before", "dissipation_after", "warnings")  # fmt: skip
+
+
+def sofia(*args: str) -> subprocess.CompletedProcess[str]:
+    return subprocess.run([SOFIA, *args], capture_output=True, text=True, timeout=120)
+
+
+def test_calibrate_lab_json_and_plot(lab_dir: Path, tmp_path: Path) -> None:
+    out = tmp_path / "dissipation.png"
+    r = sofia("calibrate", "--poses", str(lab_dir / "poses.txt"), "--tfs", str(lab_dir / "tfs.txt"),
+              "--json", "--plot", str(out), "--yaml", str(tmp_path / "cal.yaml"))  # fmt: skip
+    assert r.returncode == 0, r.stderr
+    body = json.loads(r.stdout)
+    assert all(k in body for k in KEYS)
+    assert body["outliers"] == [0] and body["passes"]
+    assert max(body["spread_mm"]) < 10.0 and max(body["with_all_samples"]["spread_mm"]) > 10.0
+    assert np.allclose(np.array(body["matrix"])[:3, 3], body["translation"])
+    assert "panda_link8 panda_camera" in body["ros1_static_transform"]
+    assert out.stat().st_size > 20_000 and out.read_bytes()[:4] == b"\x89PNG"
+    assert "quaternion_xyzw:" in (tmp_path / "cal.yaml").read_text()
+
+
+def test_calibrate_with_guess_gives_the_same_answer(lab_dir: Path) -> None:
+    base = ["calibrate", "--poses", str(lab_dir / "poses.txt"), "--tfs", str(lab_dir / "tfs.txt"), "--json"]
+    a = json.loads(sofia(*base).stdout)
+    b = json.loads(sofia(*base, "--guess", "0.1", "0", "0.05", "-0.2", "-0.2", "0.67", "0.68").stdout)
+    np.testing.assert_allclose(a["matrix"], b["matrix"], atol=1e-6)
+    bad = sofia(*base, "--guess", "0", "0", "0", "0", "0", "0", "2")
+    assert bad.returncode == 2 and "norm 2.0" in bad.stderr
+
+
+def test_calibrate_errors_are_one_clear_line(tmp_path: Path, lab_dir: Path) -> None:
+    r = sofia("calibrate", "--poses", str(tmp_path / "missing.txt"), "--tfs", str(lab_dir / "tfs.txt"))
+    assert r.returncode == 2 and "missing.txt" in r.stderr and "Traceback" not in r.stderr
+    (tmp_path / "poses.txt").write_text("0.1,0.2,0.5\n")
+    r = sofia("calibrate", "--poses", str(tmp_path / "poses.txt"), "--tfs", str(lab_dir / "tfs.txt"))
+    assert r.returncode == 2 and "1 blob positions but" in r.stderr
+    r = sofia("calibrate")
+    assert r.returncode == 2 and "give --poses" in r.stderr
+
+
+def test_calibrate_from_mcap(tmp_path: Path) -> None:
+    from sofia_replay.synth.record import write_calibration_session
+
+    session = write_calibration_session(tmp_path / "c.mcap", n_poses=6, seed=2, clouds=False)
+    r = sofia("calibrate", "--mcap", str(tmp_path / "c.mcap"), "--json")
+    assert r.returncode == 0, r.stderr
+    body = json.loads(r.stdout)
+    assert np.linalg.norm(np.array(body["translation"]) - session.T_flange_cam[:3, 3]) < 0.005
+
+
+@pytest.mark.slow
+def test_calibrate_from_mcap_clouds(tmp_path: Path) -> None:
+    from sofia_replay.synth.record import write_calibration_session
+
+    session = write_calibration_session(tmp_path / "c.mcap", n_poses=6, seed=3, clouds=True)
+    r = sofia("calibrate", "--mcap", str(tmp_path / "c.mcap"), "--from-clouds", "--json")
+    assert r.returncode == 0, r.stderr
+    body = json.loads(r.stdout)
+    assert np.linalg.norm(np.array(body["translation"]) - session.T_flange_cam[:3, 3]) < 0.005
+
+
+def test_yaml_and_ros_lines_name_the_direction() -> None:
+    pr = make_problem(8, np.random.default_rng(1))
+    msg = to_message(calibrate(pr.p_cam, pr.T_base_flange))
+    text = to_yaml(msg)
+    assert text.startswith("# T_flange_cam: maps points in the camera optical frame into the flange frame")
+    t, q = msg.translation, msg.quaternion_xyzw
+    assert (
+        f'args="{t[0]:.6f} {t[1]:.6f} {t[2]:.6f} {q[0]:.6f} {q[1]:.6f} {q[2]:.6f} {q[3]:.6f} panda_link8 panda_camera 100"'
+        in msg.ros1_static_transform
+    )
+    assert (
+        f"--qw {q[3]:.6f} --frame-id panda_link8 --child-frame-id panda_camera" in msg.ros2_static_transform
+    )
+    np.testing.assert_allclose(msg.matrix, pr.T_flange_cam, atol=0.01)

@@ -91,9 +91,8 @@ def query(args: argparse.Namespace) -> int:
                 n_ok += 1
                 s = reply.ok
                 _print(str(s.key_expr), s.payload.to_bytes(), str(s.encoding), args.json)
-            else:
+            elif (err := reply.err) is not None:
                 n_err += 1
-                err = reply.err
                 desc = describe(err.payload.to_bytes(), str(err.encoding))
                 print(
                     json.dumps({"error": desc.get("json", desc)}, indent=None if args.json else 2), flush=True

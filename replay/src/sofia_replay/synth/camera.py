@@ -86,7 +86,7 @@ def cast(
     d_base = d_cam @ T_base_cam[:3, :3].T
     origins = np.broadcast_to(T_base_cam[:3, 3], d_base.shape)
     rays = np.concatenate([origins, d_base], axis=-1).astype(np.float32)
-    hit = scene.cast_rays(o3d.core.Tensor(rays))
+    hit = scene.cast_rays(o3d.core.Tensor.from_numpy(rays))
     depth = hit["t_hit"].numpy().astype(np.float64)
     ids = hit["geometry_ids"].numpy().astype(np.int64)
     ids[ids == INVALID_ID] = -1

@@ -169,7 +169,9 @@ def _tmesh(mesh: o3d.geometry.TriangleMesh, T: np.ndarray) -> o3d.t.geometry.Tri
 
 
 def _box(size: np.ndarray, T: np.ndarray) -> o3d.t.geometry.TriangleMesh:
-    m = o3d.geometry.TriangleMesh.create_box(*map(float, size))
+    m = o3d.geometry.TriangleMesh.create_box(
+        width=float(size[0]), height=float(size[1]), depth=float(size[2])
+    )
     m.translate(-np.asarray(size, float) / 2)
     return _tmesh(m, T)
 
@@ -233,10 +235,10 @@ def build(scene: Scene, T_base_flange: np.ndarray | None = None):  # type: ignor
         inside = rc_idx[:, 0] >= 0
         top = p_board[:, 2] > -1e-3
         flat = rc_idx[:, 0] * board.cols + rc_idx[:, 1]
-        col = np.where(
+        field_colour = np.where(
             (inside & top)[:, None], np.where(red[np.clip(flat, 0, None)][:, None], RED, WHITE), WOOD
         )
-        out[on_board] = col.astype(np.uint8)
+        out[on_board] = field_colour.astype(np.uint8)
         return out
 
     return rc, colour_of

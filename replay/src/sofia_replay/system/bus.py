@@ -5,7 +5,7 @@ from __future__ import annotations
 import threading
 import time
 from collections.abc import Callable
-from typing import TypeVar
+from typing import Generic, TypeVar
 
 import zenoh
 from pydantic import BaseModel
@@ -24,12 +24,12 @@ def ask(session: zenoh.Session, key: str, model: type[M], payload: bytes | str |
     for reply in session.get(key, payload=payload, timeout=timeout):
         if reply.ok is not None:
             return model.model_validate_json(reply.ok.payload.to_bytes())
-        raw = reply.err.payload.to_bytes()
+        raw = reply.err.payload.to_bytes() if reply.err is not None else b""
         try:
             err = ErrorReply.model_validate_json(raw)
-            raise QueryError(f"{key}: {err.error}: {err.message}")
         except ValueError:
             raise QueryError(f"{key}: error reply {raw[:200]!r}") from None
+        raise QueryError(f"{key}: {err.error}: {err.message}")
     raise QueryError(f"{key}: no reply within {timeout} s")
 
 
@@ -42,7 +42,7 @@ def wait_until(predicate: Callable[[], bool], timeout: float, interval: float = 
     return predicate()
 
 
-class Collector:
+class Collector(Generic[M]):
     """Collects parsed messages arriving on a key (the callback only appends)."""
 
     def __init__(self, session: zenoh.Session, key: str, model: type[M],

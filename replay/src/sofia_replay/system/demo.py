@@ -133,10 +133,12 @@ def run_demo(out: Path, recordings: Path, n_scenes: int = 12, n_poses: int = 12,
     launcher.start()
     try:
         with zenoh.open(zenoh_config()) as session:
-            healthy = wait_until(
-                lambda: (launcher.poll(), all(s == "ok" for s in launcher.check_health(session).values()))[1],
-                90,
-            )
+
+            def all_healthy() -> bool:
+                launcher.poll()
+                return all(s == "ok" for s in launcher.check_health(session).values())
+
+            healthy = wait_until(all_healthy, 90)
             say(launcher.table())
             summary.add(
                 "services up",

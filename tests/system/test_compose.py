@@ -13,15 +13,20 @@ import copy
 import fnmatch
 import functools
 import json
+import os
 import posixpath
 import re
 import shlex
+import socket
 import subprocess
 import sys
+import time
 import tomllib
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from importlib.metadata import PackageNotFoundError, distribution, packages_distributions
 from pathlib import Path
+from subprocess import PIPE
 from typing import Any
 
 import jsonschema
@@ -35,6 +40,7 @@ from sofia_schemas.zenoh_config import resolve
 
 REPO = Path(__file__).resolve().parents[2]
 SCHEMA = Path(__file__).with_name("data") / "compose-spec.json"
+SOFIA = str(Path(sys.executable).with_name("sofia"))
 ROUTER = "zenoh"
 RESTART_POLICIES = {"unless-stopped", "on-failure", "always"}
 _VAR = re.compile(r"\$\{(\w+)(?::?-([^}]*))?\}")
@@ -242,24 +248,38 @@ class Probe:
     stderr: str
 
 
-def probe_in_image(image: Image, commands: list[list[str]]) -> Probe:
-    """Run :data:`_PROBE` for ``image`` with ``commands`` (argv without ``sofia``)."""
+def start_probe(image: Image, commands: list[list[str]]) -> subprocess.Popen[str]:
+    """Start :data:`_PROBE` for ``image`` with ``commands`` (argv without ``sofia``)."""
     closure = dependency_closure(image)
     absent = [
         m for m, ds in packages_distributions().items() if not {canonicalize_name(d) for d in ds} & closure
     ]
     entry_points = [(p.name, *ep) for p in image.packages.values() for ep in p.entry_points().items()]
     arg = json.dumps([absent, entry_points, commands])
-    run = subprocess.run([sys.executable, "-c", _PROBE, arg], capture_output=True, text=True, timeout=120)
-    lines = run.stdout.splitlines()
-    return Probe(run.returncode, json.loads(lines[0]) if lines else {}, run.stderr)
+    return subprocess.Popen([sys.executable, "-c", _PROBE, arg], stdout=PIPE, stderr=PIPE, text=True)
+
+
+def finish_probe(proc: subprocess.Popen[str]) -> Probe:
+    out, err = proc.communicate(timeout=120)
+    lines = out.splitlines()
+    return Probe(proc.returncode, json.loads(lines[0]) if lines else {}, err)
 
 
 @functools.cache
-def probe_service(name: str) -> Probe:
-    return probe_in_image(
-        image_of(name), [argv(services()[name]["command"])[1:], health_argv(services()[name])[1:]]
-    )
+def image_probes() -> dict[str, Probe]:
+    """One probe per Dockerfile, with the commands and healthchecks of every service built from it,
+    run side by side."""
+    commands: dict[str, list[list[str]]] = {}
+    for name in SOFIA_SERVICES:
+        cmds = commands.setdefault(services()[name]["build"]["dockerfile"], [])
+        cmds += [argv(services()[name]["command"])[1:], health_argv(services()[name])[1:]]
+    first = {services()[n]["build"]["dockerfile"]: n for n in reversed(SOFIA_SERVICES)}
+    procs = {df: start_probe(image_of(first[df]), cmds) for df, cmds in commands.items()}
+    return {df: finish_probe(proc) for df, proc in procs.items()}
+
+
+def probe_of(name: str) -> Probe:
+    return image_probes()[services()[name]["build"]["dockerfile"]]
 
 
 def dockerignored(path: str) -> bool:
@@ -428,7 +448,7 @@ def test_dockerfile_base_user_and_copies(name: str) -> None:
 
 @pytest.mark.parametrize("name", SOFIA_SERVICES)
 def test_image_installs_exactly_the_packages_its_command_needs(name: str) -> None:
-    image, probe = image_of(name), probe_service(name)
+    image, probe = image_of(name), probe_of(name)
     command, health = argv(services()[name]["command"]), health_argv(services()[name])
     assert command[0] == health[0] == "sofia"
     assert any(p.project.get("scripts", {}).get("sofia") for p in image.packages.values())
@@ -450,14 +470,14 @@ def test_image_installs_exactly_the_packages_its_command_needs(name: str) -> Non
 
 @pytest.mark.parametrize("name", SOFIA_SERVICES)
 def test_command_and_healthcheck_parse_with_only_what_the_image_installs(name: str) -> None:
-    probe = probe_service(name)
+    probe = probe_of(name)
     assert probe.returncode == 0, f"{name}: command or healthcheck fails in its image:\n{probe.stderr}"
 
 
 def test_the_probe_fails_without_the_needed_package() -> None:
     image = image_of("gripper")
     del image.packages["sofia-gripper"]  # as if the Dockerfile forgot it
-    probe = probe_in_image(image, [["health", "gripper"], ["gripper", "serve", "--emulate"]])
+    probe = finish_probe(start_probe(image, [["health", "gripper"], ["gripper", "serve", "--emulate"]]))
     assert "health" in probe.owners["sofia-schemas"] and "sofia-gripper" not in probe.owners
     assert probe.returncode == 2 and "invalid choice: 'gripper'" in probe.stderr, probe.stderr
 
@@ -470,3 +490,27 @@ def test_gripper_image_pulls_no_open3d_while_the_detector_needs_it() -> None:
     assert "open3d" in dependency_closure(detector)  # so the check above can fail
     apt = next(r for r in detector.runs if "apt-get install" in r)
     assert {"libusb-1.0-0", "libgomp1"} <= set(apt.split()), "Open3D needs libusb-1.0-0 and libgomp1"
+
+
+def test_the_emulated_gripper_becomes_healthy_through_a_router_as_in_compose(
+    sofia_proc: Callable[..., Any], robot_id: str
+) -> None:
+    """The compose wiring without Docker: a router, the gripper-emulated service as a Zenoh client
+    of it by TCP with the compose environment, and the compose healthcheck exiting 0."""
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    service = services()["gripper-emulated"]
+    env = {k: interpolate(str(v)) for k, v in service["environment"].items()}
+    env.update(SOFIA_ROBOT=robot_id, SOFIA_ZENOH_CONNECT=f"tcp/127.0.0.1:{port}")  # host "zenoh" here
+    sofia_proc("router", "--listen", f"tcp/127.0.0.1:{port}").wait_for_log("router ready")
+    gripper = sofia_proc(*argv(service["command"])[1:], env=env)
+    health = health_argv(service)
+    deadline = time.monotonic() + 30
+    while True:
+        run = subprocess.run([SOFIA, *health[1:]], env={**os.environ, **env}, capture_output=True, text=True)
+        if run.returncode == 0 or time.monotonic() > deadline:
+            break
+        time.sleep(0.2)
+    assert run.returncode == 0, f"{health} exited {run.returncode}: {run.stderr}\n{gripper.log()}"
+    assert "gripper:" in run.stdout

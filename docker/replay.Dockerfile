@@ -14,4 +14,4 @@ RUN pip install -c constraints.txt "./schemas[ros]" ./replay
 RUN useradd --create-home --uid 10001 --user-group sofia
 USER sofia
 WORKDIR /home/sofia
-CMD ["sofia", "replay", "play", "/recordings/scene.mcap", "--loop"]
+CMD ["sofia", "replay", "play", "/recordings/scenes.mcap", "--loop"]

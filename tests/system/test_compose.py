@@ -417,7 +417,7 @@ def test_the_gripper_gets_the_serial_device_and_the_emulated_one_does_not() -> N
 def test_mounts_state_volume_board_and_recordings() -> None:
     named = set(compose()["volumes"])
     for name, service in services().items():
-        for volume in service.get("volumes", []):
+        for volume in map(interpolate, service.get("volumes", [])):
             source = volume.split(":")[0]
             if source.startswith("."):
                 assert source == "./recordings" or (REPO / source).exists(), f"{name}: {source} missing"
@@ -430,7 +430,7 @@ def test_mounts_state_volume_board_and_recordings() -> None:
         assert path.startswith(state + "/"), f"the calibrator's {path} is outside the named volume {state}"
     assert "./config/board.yaml:/etc/sofia/board.yaml:ro" in services()["detector"]["volumes"]
     replay = services()["replay"]
-    assert "./recordings:/recordings:ro" in replay["volumes"]
+    assert "./recordings:/recordings:ro" in map(interpolate, replay["volumes"])
     assert argv(replay["command"])[3].startswith("/recordings/") and "--loop" in argv(replay["command"])
 
 

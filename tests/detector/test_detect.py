@@ -1,0 +1,114 @@
+"""``sofia_detector.detect`` on rendered scenes: objects found, centres within millimetres, fields."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from sofia_detector import DetectorParams, detect
+from sofia_schemas import Board
+from sofia_schemas.messages import Detection
+
+CENTER_TOL = 0.005  # the benchmark's p95 target, metres
+
+
+def _match(det: Detection, truth: list) -> list[tuple[object, object, float]]:  # type: ignore[type-arg]
+    """(truth, detected, centre error m) for every true object, nearest detection."""
+    out = []
+    for t in truth:
+        errs = [float(np.linalg.norm(np.array(o.center) - t.center)) for o in det.objects]
+        j = int(np.argmin(errs))
+        out.append((t, det.objects[j], errs[j]))
+    return out
+
+
+@pytest.mark.parametrize("name", ["box", "cylinder", "sphere", "nonred"])
+def test_one_object_centre_field_and_size(scenes, board: Board, name: str) -> None:
+    s = scenes[name]
+    det = detect(s.points_base, board, stamp_ns=42)
+    assert det.status == "ok" and det.stamp_ns == 42 and det.frame_id == board.frame_id
+    assert len(det.objects) == 1, det
+    ((truth, obj, err),) = _match(det, s.objects)
+    assert err < CENTER_TOL, f"{name}: centre error {err * 1e3:.2f} mm"
+    assert obj.field == truth.field and obj.allowed == truth.allowed
+    assert obj.extents[2] == pytest.approx(truth.extents[2], abs=0.006)
+    assert sorted(obj.extents[:2]) == pytest.approx(sorted(truth.extents[:2]), abs=0.012)
+    assert 0.0 < obj.confidence <= 1.0 and obj.n_points > 100
+    # the centroid is the mean of the visible points: above the box centre, biased towards the camera
+    assert obj.centroid[2] > obj.center[2]
+
+
+def test_box_yaw_matches_its_footprint(scenes, board: Board) -> None:
+    s = scenes["box"]
+    ((truth, obj, _),) = _match(detect(s.points_base, board), s.objects)
+    long_truth = truth.yaw if truth.extents[0] >= truth.extents[1] else truth.yaw + np.pi / 2
+    diff = (obj.yaw - long_truth + np.pi / 2) % np.pi - np.pi / 2
+    if abs(truth.extents[0] - truth.extents[1]) > 0.01:
+        assert abs(diff) < np.radians(3)
+
+
+def test_empty_board_is_an_explicit_no_object(scenes, board: Board) -> None:
+    det = detect(scenes["empty"].points_base, board)
+    assert det.status == "no_object" and det.objects == []
+    assert det.board_normal is not None and det.board_normal[2] > 0.99
+    assert set(det.timings_ms) >= {"board_ms", "segment_ms", "objects_ms", "total_ms"}
+
+
+def test_several_objects_allowed_first(scenes, board: Board) -> None:
+    s = scenes["two"]
+    det = detect(s.points_base, board)
+    assert len(det.objects) == 2
+    for truth, obj, err in _match(det, s.objects):
+        assert err < CENTER_TOL and obj.field == truth.field and obj.allowed == truth.allowed
+    allowed = [o.allowed for o in det.objects]
+    assert allowed == sorted(allowed, reverse=True)
+
+
+def test_measured_board_pose_follows_the_real_board(scenes, board: Board) -> None:
+    s = scenes["box"]
+    det = detect(s.points_base, board)
+    T_true = s.frame.scene.T_base_board
+    assert np.linalg.norm(np.array(det.board_center) - T_true[:3, 3]) < 0.005
+    assert np.degrees(np.arccos(np.clip(np.dot(det.board_normal, T_true[:3, 2]), -1, 1))) < 0.3
+    assert det.detail == ""
+
+
+def test_unorganized_cloud_gives_the_same_objects(scenes, board: Board) -> None:
+    s = scenes["two"]
+    pts = s.points_base.reshape(-1, 3)
+    pts = pts[np.random.default_rng(0).permutation(pts.shape[0])]
+    det = detect(pts, board)
+    assert len(det.objects) == 2
+    for truth, obj, err in _match(det, s.objects):
+        assert err < CENTER_TOL and obj.field == truth.field
+
+
+def test_float64_and_strided_views_are_accepted(scenes, board: Board) -> None:
+    pts = scenes["sphere"].points_base
+    a = detect(pts, board).objects[0].center
+    b = detect(pts.astype(np.float64), board).objects[0].center
+    padded = np.zeros((*pts.shape[:2], 4), np.float32)  # xyz + rgb, as a PointCloud2 view
+    padded[..., :3] = pts
+    c = detect(padded[..., :3], board).objects[0].center
+    assert np.allclose(a, b, atol=1e-4) and np.allclose(a, c, atol=1e-9)
+
+
+def test_clutter_off_the_board_is_ignored(scenes, board: Board) -> None:
+    # the rendered scenes contain a box beside the board and the robot base: still no object
+    pts = scenes["empty"].points_base.copy()
+    far = np.array([0.5, 0.55, 0.05], np.float32)  # a tall thing 25 cm beyond the board edge
+    pts[:20, :20] = far + np.random.default_rng(1).normal(0, 0.01, (20, 20, 3))
+    assert detect(pts, board).status == "no_object"
+
+
+def test_holes_do_not_split_objects(scenes, board: Board) -> None:
+    s = scenes["cylinder"]
+    rng = np.random.default_rng(3)
+    pts = np.where(rng.random(s.points_base.shape[:2] + (1,)) < 0.4, np.nan, s.points_base)
+    det = detect(pts, board)
+    assert len(det.objects) == 1
+    assert _match(det, s.objects)[0][2] < CENTER_TOL
+
+
+def test_params_are_used(scenes, board: Board) -> None:
+    det = detect(scenes["box"].points_base, board, DetectorParams(max_height=0.01, seed_height=0.005))
+    assert det.status == "no_object"

@@ -1,0 +1,82 @@
+"""Flange pose history, flange->camera transform files, camera clouds into the base frame."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+from sofia_detector import BadTransformFile, TransformUnavailable
+from sofia_detector.frames import FlangeHistory, camera_to_base, load_transform_file
+from sofia_replay.synth import DEFAULT_T_FLANGE_CAM
+from sofia_schemas.transforms import make_transform, matrix_to_quat_xyzw
+
+
+def _T(rotvec, t) -> np.ndarray:  # type: ignore[no-untyped-def]
+    T = np.eye(4)
+    T[:3, :3] = Rotation.from_rotvec(rotvec).as_matrix()
+    T[:3, 3] = t
+    return T
+
+
+def test_history_interpolates_between_bracketing_poses() -> None:
+    h = FlangeHistory(tolerance_ns=50_000_000)
+    T0, T1 = _T([0, 0, 0], [0.0, 0.0, 0.5]), _T([0, 0, 0.2], [0.1, 0.0, 0.5])
+    h.add(1_000_000_000, T0)
+    h.add(1_040_000_000, T1)
+    T = h.at(1_010_000_000)
+    assert np.allclose(T[:3, 3], [0.025, 0, 0.5])
+    assert Rotation.from_matrix(T[:3, :3]).as_rotvec() == pytest.approx([0, 0, 0.05])
+    assert np.array_equal(h.at(1_040_000_000), T1)
+
+
+def test_history_nearest_and_tolerance() -> None:
+    h = FlangeHistory(tolerance_ns=20_000_000)
+    h.add(2_000_000_000, _T([0, 0, 0], [1, 2, 3]))
+    h.add(1_000_000_000, _T([0, 0, 0], [0, 0, 0]))  # out of order is fine
+    assert np.allclose(h.at(2_010_000_000)[:3, 3], [1, 2, 3])
+    with pytest.raises(TransformUnavailable, match=r"40.0 ms from the cloud stamp"):
+        h.at(2_040_000_000)
+    with pytest.raises(TransformUnavailable, match="no flange pose received yet"):
+        FlangeHistory().at(5)
+
+
+def test_transform_files(tmp_path: Path) -> None:
+    T = DEFAULT_T_FLANGE_CAM
+    (tmp_path / "m.json").write_text(json.dumps({"matrix": T.tolist()}))
+    q = matrix_to_quat_xyzw(T[:3, :3])
+    (tmp_path / "q.yaml").write_text(f"translation: {T[:3, 3].tolist()}\nquaternion_xyzw: {q.tolist()}\n")
+    assert np.allclose(load_transform_file(tmp_path / "m.json"), T)
+    assert np.allclose(load_transform_file(tmp_path / "q.yaml"), T)
+
+
+@pytest.mark.parametrize(
+    ("text", "needle"),
+    [
+        ("matrix: [[1, 0], [0, 1]]", "shape (4, 4)"),
+        ("translation: [0, 0, 0]\nquaternion_xyzw: [0, 0, 0, 2]", "norm 2.000000"),
+        ("foo: 1", "needs 'matrix' or 'translation' + 'quaternion_xyzw'"),
+        ("- 1\n- 2", "expected a mapping"),
+        ("matrix: [[2,0,0,0],[0,1,0,0],[0,0,1,0],[0,0,0,1]]", "not a rotation"),
+        ("{: bad", "is not valid YAML"),
+    ],
+)
+def test_bad_transform_files(tmp_path: Path, text: str, needle: str) -> None:
+    path = tmp_path / "t.yaml"
+    path.write_text(text)
+    with pytest.raises(BadTransformFile, match=str(path)) as e:
+        load_transform_file(path)
+    assert needle in str(e.value)
+    with pytest.raises(BadTransformFile, match="cannot be read"):
+        load_transform_file(tmp_path / "missing.yaml")
+
+
+def test_camera_to_base_matches_the_renderer(scenes) -> None:
+    f = scenes["box"].frame
+    T_base_cam = f.T_base_flange @ f.T_flange_cam
+    points = camera_to_base(f.render.points_cam, T_base_cam)
+    assert points.shape == f.points_base.shape
+    assert np.allclose(points, f.points_base, atol=1e-5, equal_nan=True)
+    assert np.allclose(make_transform(T_base_cam[:3, 3], matrix_to_quat_xyzw(T_base_cam[:3, :3])), T_base_cam)

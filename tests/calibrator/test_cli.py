@@ -66,7 +66,6 @@ def test_calibrate_from_mcap(tmp_path: Path) -> None:
     assert np.linalg.norm(np.array(body["translation"]) - session.T_flange_cam[:3, 3]) < 0.005
 
 
-@pytest.mark.slow
 def test_calibrate_from_mcap_clouds(tmp_path: Path) -> None:
     from sofia_replay.synth.record import write_calibration_session
 

@@ -146,3 +146,37 @@ def test_service_online_queries_errors_and_restart(
     assert not ok and "no result yet" in body["message"]
     sub.undeclare()
     assert proc2.stop() == 0
+
+
+def test_service_extracts_the_blob_from_camera_clouds(
+    sofia_proc, session, robot_id: str, tmp_path: Path
+) -> None:  # type: ignore[no-untyped-def]
+    from sofia_replay.synth.calibration import make_calibration_session
+    from sofia_schemas.pointcloud import encode_points
+
+    keys = Keys(robot_id)
+    proc = sofia_proc("calibrator", "--state-dir", str(tmp_path / "state"), "--from-clouds")
+    proc.wait_for_log("calibrator ready")
+    wait_until_served(session, keys)
+    cal_session = make_calibration_session(5, np.random.default_rng(9))
+    for k, f in enumerate(cal_session.frames):
+        stamp = T0_NS + k * PERIOD_NS
+        for dt in (-100_000_000, 0):
+            session.put(
+                keys.flange_pose, encode_flange_pose(FlangePose.from_matrix(f.T_base_flange, stamp + dt))
+            )
+        session.put(
+            keys.camera_points, encode_points(f.points_cam, stamp_ns=stamp, frame_id="cam", rgb=f.rgb)
+        )
+        session.put(
+            keys.flange_pose, encode_flange_pose(FlangePose.from_matrix(f.T_base_flange, stamp + 100_000_000))
+        )
+    rgb = cal_session.frames[0].rgb.copy()
+    rgb[:] = 240  # no blob in view: rejected with the reason, the service keeps running
+    session.put(keys.camera_points, encode_points(cal_session.frames[0].points_cam, stamp_ns=T0_NS + 9 * PERIOD_NS,
+                                                  frame_id="cam", rgb=rgb))  # fmt: skip
+    proc.wait_for_log("solved with 5 samples")
+    proc.wait_for_log("no blob found")
+    ok, body = query(session, keys.calibrator_op("result"))
+    assert ok and body["n_samples"] == 5
+    assert np.linalg.norm(np.array(body["translation"]) - cal_session.T_flange_cam[:3, 3]) < 0.005

@@ -103,7 +103,7 @@ def test_clutter_off_the_board_is_ignored(scenes, board: Board) -> None:
 def test_holes_do_not_split_objects(scenes, board: Board) -> None:
     s = scenes["cylinder"]
     rng = np.random.default_rng(3)
-    pts = np.where(rng.random(s.points_base.shape[:2] + (1,)) < 0.4, np.nan, s.points_base)
+    pts = np.where(rng.random((*s.points_base.shape[:2], 1)) < 0.4, np.nan, s.points_base)
     det = detect(pts, board)
     assert len(det.objects) == 1
     assert _match(det, s.objects)[0][2] < CENTER_TOL

@@ -1,0 +1,156 @@
+"""``sofia detector serve`` as a separate process, driven over Zenoh from the test."""
+
+from __future__ import annotations
+
+import json
+import queue
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+import zenoh
+from sofia_replay.synth import DEFAULT_T_FLANGE_CAM
+from sofia_schemas import pointcloud
+from sofia_schemas.keys import ENCODING_CDR_POINTCLOUD2, ENCODING_JSON, Keys
+from sofia_schemas.messages import Detection, ErrorReply, FlangePose, PickTarget, ServiceStatus
+from sofia_schemas.rosmsg import encode_flange_pose
+from sofia_schemas.zenoh_config import zenoh_config
+
+STAMP_NS = 1_700_000_123_000_000_000
+
+
+@pytest.fixture
+def session():  # type: ignore[no-untyped-def]
+    with zenoh.open(zenoh_config()) as s:
+        yield s
+
+
+def _collect(session: zenoh.Session, key: str) -> tuple[queue.Queue[bytes], object]:
+    q: queue.Queue[bytes] = queue.Queue()
+    sub = session.declare_subscriber(key, lambda s: q.put(s.payload.to_bytes()))
+    return q, sub
+
+
+def _get(session: zenoh.Session, key: str, payload: bytes | None = None, timeout: float = 10.0) -> list:  # type: ignore[type-arg]
+    """Replies of one query, retried until the queryable answers (discovery takes a moment)."""
+    deadline = time.monotonic() + timeout
+    while True:
+        kwargs = {"payload": payload} if payload is not None else {}
+        replies = list(session.get(key, timeout=5.0, **kwargs))
+        if replies or time.monotonic() > deadline:
+            return replies
+        time.sleep(0.2)
+
+
+def _wait_subscribed(session: zenoh.Session, keys: Keys) -> None:
+    """Wait until the service answers its status query: its subscribers are declared by then."""
+    replies = _get(session, keys.status("detector"))
+    assert replies and replies[0].ok is not None
+
+
+def test_clouds_in_detections_out_with_pick_and_status(sofia_proc, robot_id: str, session, scenes) -> None:  # type: ignore[no-untyped-def]
+    keys = Keys(robot_id)
+    proc = sofia_proc("detector", "serve")
+    proc.wait_for_log("detector ready")
+    dets, _s1 = _collect(session, keys.detections)
+    picks, _s2 = _collect(session, keys.pick_target)
+    statuses, _s3 = _collect(session, keys.status("detector"))
+    _wait_subscribed(session, keys)
+    pub = session.declare_publisher(keys.points)
+    s = scenes["two"]
+    for i in range(3):
+        cdr = pointcloud.encode_points(s.points_base, stamp_ns=STAMP_NS + i, frame_id="panda_link0")
+        pub.put(bytes(cdr), encoding=ENCODING_CDR_POINTCLOUD2)
+        det = Detection.model_validate_json(dets.get(timeout=15))
+        assert det.stamp_ns == STAMP_NS + i and det.source == keys.points
+        assert len(det.objects) == 2 and det.objects[0].allowed
+        truth = {o.field: o.center for o in s.objects}
+        for obj in det.objects:
+            assert np.linalg.norm(np.array(obj.center) - truth[obj.field]) < 0.005
+        pick = PickTarget.model_validate_json(picks.get(timeout=10))
+        assert pick.stamp_ns == STAMP_NS + i and pick.object_center == det.objects[0].center
+    status = ServiceStatus.model_validate_json(statuses.get(timeout=5))
+    assert status.service == "detector" and status.counters["processed"] >= 1
+    assert {"received", "dropped", "errors"} <= set(status.counters)
+    proc.stop()
+    assert "Traceback" not in proc.log()
+
+
+def test_detect_queryable(sofia_proc, robot_id: str, session, scenes) -> None:  # type: ignore[no-untyped-def]
+    keys = Keys(robot_id)
+    proc = sofia_proc("detector", "serve")
+    proc.wait_for_log("detector ready")
+    empty = _get(session, keys.detect)  # no cloud yet: an error that says so
+    assert empty and empty[0].err is not None
+    assert "no cloud received yet" in ErrorReply.model_validate_json(empty[0].err.payload.to_bytes()).message
+    s = scenes["sphere"]
+    cdr = bytes(pointcloud.encode_points(s.points_base, stamp_ns=STAMP_NS, frame_id="panda_link0"))
+    ok = _get(session, keys.detect, cdr)
+    det = Detection.model_validate_json(ok[0].ok.payload.to_bytes())
+    assert (
+        det.stamp_ns == STAMP_NS
+        and np.linalg.norm(np.array(det.objects[0].center) - s.objects[0].center) < 0.005
+    )
+    for garbage, needle in [(b"\x00\x01\x00\x00\x01", "truncated"), (b"{not cdr}", "not a CDR PointCloud2")]:
+        bad = _get(session, keys.detect, garbage)
+        assert bad[0].err is not None
+        err = ErrorReply.model_validate_json(bad[0].err.payload.to_bytes())
+        assert needle in err.message.lower() or needle in err.message, err
+    again = _get(session, keys.detect, cdr)  # still serving after the garbage
+    assert Detection.model_validate_json(again[0].ok.payload.to_bytes()).stamp_ns == STAMP_NS
+    # no payload: the detection of the latest cloud received on the bus (queried clouds are not)
+    assert _get(session, keys.detect)[0].err is not None
+    pub = session.declare_publisher(keys.points)
+    dets, _sub = _collect(session, keys.detections)
+    _wait_subscribed(session, keys)
+    pub.put(bytes(pointcloud.encode_points(s.points_base, stamp_ns=STAMP_NS + 5, frame_id="panda_link0")))
+    assert Detection.model_validate_json(dets.get(timeout=15)).stamp_ns == STAMP_NS + 5
+    after = Detection.model_validate_json(_get(session, keys.detect)[0].ok.payload.to_bytes())
+    assert after.stamp_ns == STAMP_NS + 5
+    status = ServiceStatus.model_validate_json(
+        _get(session, keys.status("detector"))[0].ok.payload.to_bytes()
+    )
+    assert status.counters["query_errors"] == 4 and status.counters["queries"] == 7
+    assert proc.popen.poll() is None
+
+
+def test_camera_frame_cloud_with_flange_pose_and_transform_file(
+    sofia_proc, robot_id: str, session, scenes, tmp_path: Path
+) -> None:  # type: ignore[no-untyped-def]
+    keys = Keys(robot_id)
+    tf = tmp_path / "T_flange_cam.json"
+    tf.write_text(json.dumps({"matrix": DEFAULT_T_FLANGE_CAM.tolist()}))
+    proc = sofia_proc("detector", "serve", "--transform", str(tf))
+    proc.wait_for_log("detector ready")
+    dets, _sub = _collect(session, keys.detections)
+    _wait_subscribed(session, keys)
+    f = scenes["box"].frame
+    poses = session.declare_publisher(keys.flange_pose)
+    # the arm moves: poses 20 ms before and after the cloud's stamp, the cloud's pose between them
+    T_before, T_after = f.T_base_flange.copy(), f.T_base_flange.copy()
+    T_before[0, 3] -= 0.01
+    T_after[0, 3] += 0.01
+    poses.put(encode_flange_pose(FlangePose.from_matrix(T_before, STAMP_NS - 20_000_000)))
+    poses.put(FlangePose.from_matrix(T_after, STAMP_NS + 20_000_000).to_json_bytes(), encoding=ENCODING_JSON)
+    time.sleep(0.3)
+    cam = session.declare_publisher(keys.camera_points)
+    cam.put(
+        bytes(
+            pointcloud.encode_points(
+                f.render.points_cam, stamp_ns=STAMP_NS, frame_id="camera_color_optical_frame"
+            )
+        )
+    )
+    det = Detection.model_validate_json(dets.get(timeout=15))
+    assert det.transform == f"file {tf}" and det.source == keys.camera_points
+    assert np.linalg.norm(np.array(det.objects[0].center) - scenes["box"].objects[0].center) < 0.005
+    # a camera cloud with no flange pose near its stamp is not detected, and the status says why
+    cam.put(bytes(pointcloud.encode_points(f.render.points_cam, stamp_ns=STAMP_NS + 10**9, frame_id="cam")))
+    time.sleep(1.0)
+    status = ServiceStatus.model_validate_json(
+        _get(session, keys.status("detector"))[0].ok.payload.to_bytes()
+    )
+    assert status.counters["no_transform"] == 1 and "flange pose" in status.detail
+    assert status.info["transform"] == f"file {tf}"
+    assert proc.popen.poll() is None

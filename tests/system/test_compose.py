@@ -36,7 +36,7 @@ import zenoh
 from packaging.requirements import Requirement
 from packaging.utils import canonicalize_name
 from sofia_schemas.keys import Keys
-from sofia_schemas.zenoh_config import resolve
+from sofia_schemas.zenoh_config import resolve, zenoh_config
 
 REPO = Path(__file__).resolve().parents[2]
 SCHEMA = Path(__file__).with_name("data") / "compose-spec.json"
@@ -308,6 +308,11 @@ def schema_errors(doc: dict[str, Any]) -> list[str]:
     return [f"{'/'.join(map(str, e.absolute_path))}: {e.message}" for e in validator().iter_errors(doc)]
 
 
+def mounts(service: dict[str, Any]) -> dict[str, str]:
+    """Container path -> host path (or volume name) of a service's volumes."""
+    return {v.split(":")[1]: v.split(":")[0] for v in map(interpolate, service.get("volumes", []))}
+
+
 def test_compose_file_follows_the_compose_specification() -> None:
     assert schema_errors(compose()) == []
 
@@ -335,8 +340,7 @@ def test_router_is_the_official_image_pinned_to_1x_with_its_config_mounted() -> 
     assert re.fullmatch(r"eclipse/zenoh:1\.\d+\.\d+", router["image"]), router["image"]
     command = argv(router["command"])
     config_in_container = command[command.index("-c") + 1]
-    mounts = dict(reversed(v.split(":")[:2]) for v in router["volumes"])  # target -> source
-    config = router_config(REPO / mounts[config_in_container])
+    config = router_config(REPO / mounts(router)[config_in_container])
     assert config["mode"] == "router"
     assert config["listen"]["endpoints"] == ["tcp/[::]:7447"]
     assert config["scouting"]["multicast"]["enabled"] is False
@@ -346,7 +350,8 @@ def test_router_is_the_official_image_pinned_to_1x_with_its_config_mounted() -> 
     assert rest.startswith("127.0.0.1:"), rest
     health = health_argv(router)
     assert any(a.startswith(f"http://{rest}/@/") for a in health), health
-    assert router["ports"] == ["127.0.0.1:7447:7447"], "the bus is published on the host's loopback only"
+    published = [interpolate(p) for p in router["ports"]]
+    assert published == ["127.0.0.1:7447:7447"], "by default the bus is published on the host's loopback only"
 
 
 def test_secure_router_and_client_configs_load_in_zenoh() -> None:
@@ -361,6 +366,34 @@ def test_secure_router_and_client_configs_load_in_zenoh() -> None:
     assert client["transport"]["auth"]["usrpwd"]["user"]
     with pytest.raises(Exception, match="listen_certificat"):  # the library does check the keys
         zenoh.Config.from_json5('{transport: {link: {tls: {listen_certificat: "/x"}}}}')
+
+
+def test_the_secure_overlay_puts_every_service_on_tls_with_credentials() -> None:
+    overlay = yaml.safe_load((REPO / "docker/compose.secure.yaml").read_text())
+    assert schema_errors(overlay) == []
+    assert set(overlay["services"]) == set(services()), "every service of compose.yaml is covered"
+    router_config_path = argv(services()[ROUTER]["command"])[-1]
+    router_mounts = mounts(overlay["services"][ROUTER])
+    assert router_mounts[router_config_path] == "./docker/zenoh/router-secure.json5"
+    tls = router_config(REPO / router_mounts[router_config_path])["transport"]["link"]["tls"]
+    assert tls["listen_certificate"].startswith(next(t for t, s in router_mounts.items() if s == "./certs"))
+    for name in SOFIA_SERVICES:
+        service = overlay["services"][name]
+        env = {
+            k: interpolate(str(v))
+            for k, v in {**services()[name]["environment"], **service["environment"]}.items()
+        }
+        config = mounts(service)[env["SOFIA_ZENOH_CONFIG"]]
+        assert config == "./docker/zenoh/client-secure.json5", name
+        env["SOFIA_ZENOH_CONFIG"] = str(REPO / config)  # the host copy of the mounted file
+        settings = resolve(env=env)
+        assert settings["connect"] == [f"tls/{ROUTER}:7447"] and settings["mode"] == "client"
+        zenoh_config(env=env)  # the service's own helper builds a valid Zenoh config from it
+        client_tls = router_config(REPO / config)["transport"]["link"]["tls"]
+        certs = next(t for t, s in mounts(service).items() if s == "./certs")
+        assert all(
+            client_tls[k].startswith(certs + "/") for k in ("root_ca_certificate", "connect_certificate")
+        )
 
 
 @pytest.mark.parametrize("name", list(services()))
@@ -424,7 +457,7 @@ def test_mounts_state_volume_board_and_recordings() -> None:
             else:
                 assert source in named, f"{name}: volume {source} is not declared"
     calibrator = services()["calibrator"]
-    state = next(v.split(":")[1] for v in calibrator["volumes"] if v.split(":")[0] in named)
+    state = next(target for target, source in mounts(calibrator).items() if source in named)
     command = argv(calibrator["command"])
     for path in (command[command.index("--state-dir") + 1], calibrator["working_dir"]):
         assert path.startswith(state + "/"), f"the calibrator's {path} is outside the named volume {state}"

@@ -17,6 +17,9 @@ COPY replay/ replay/
 COPY services/detector/ services/detector/
 RUN pip install -c constraints.txt "./schemas[ros]" ./replay ./services/detector
 
+# The lab board as the default; compose mounts ./config/board.yaml over it.
+COPY config/board.yaml /etc/sofia/board.yaml
+
 RUN useradd --create-home --uid 10001 --user-group sofia
 USER sofia
 WORKDIR /home/sofia

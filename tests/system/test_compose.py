@@ -116,6 +116,7 @@ class Image:
     user: str = "root"
     copies: list[tuple[str, str]] = field(default_factory=list)  # (container path, repo path)
     runs: list[str] = field(default_factory=list)
+    cmd: list[str] = field(default_factory=list)
     pip_args: list[tuple[str, str]] = field(default_factory=list)  # (workdir, argument)
 
     def repo_path(self, container_path: str) -> Path:
@@ -159,6 +160,8 @@ def parse_dockerfile(path: Path) -> Image:
                 is_dir = (REPO / src).is_dir()
                 target = dest if is_dir or not dest.endswith("/") else posixpath.join(dest, Path(src).name)
                 image.copies.append((posixpath.normpath(target), src.rstrip("/")))
+        elif op == "CMD":
+            image.cmd = json.loads(rest)
         elif op == "RUN":
             image.runs.append(rest)
             for segment in re.split(r"&&|;", rest):
@@ -274,7 +277,11 @@ def image_probes() -> dict[str, Probe]:
         cmds = commands.setdefault(services()[name]["build"]["dockerfile"], [])
         cmds += [argv(services()[name]["command"])[1:], health_argv(services()[name])[1:]]
     first = {services()[n]["build"]["dockerfile"]: n for n in reversed(SOFIA_SERVICES)}
-    procs = {df: start_probe(image_of(first[df]), cmds) for df, cmds in commands.items()}
+    images = {df: image_of(name) for df, name in first.items()}
+    for df, image in images.items():  # the image's own CMD, for `docker run` without compose
+        assert image.cmd[:1] == ["sofia"], f"{df}: CMD {image.cmd} does not run sofia"
+        commands[df].append(image.cmd[1:])
+    procs = {df: start_probe(images[df], cmds) for df, cmds in commands.items()}
     return {df: finish_probe(proc) for df, proc in procs.items()}
 
 

@@ -8,9 +8,7 @@ from pydantic import Field
 
 from .base import Finite, Message
 
-GripperAction = Literal[
-    "open", "close", "move", "grasp", "release", "stop", "torque", "reboot", "state"
-]
+GripperAction = Literal["open", "close", "move", "grasp", "release", "stop", "torque", "reboot", "state"]
 
 
 class GripperCommand(Message):

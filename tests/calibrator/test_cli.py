@@ -8,7 +8,6 @@ import sys
 from pathlib import Path
 
 import numpy as np
-import pytest
 from sofia_calibrator import to_message, to_yaml
 from sofia_calibrator.calibrate import calibrate
 from sofia_calibrator.simulate import make_problem

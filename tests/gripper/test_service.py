@@ -106,3 +106,20 @@ def test_cli_commands_against_the_service(service: Proc, robot_id: str) -> None:
     assert health.returncode == 0 and health.stdout.startswith("gripper: ok"), health.stdout + health.stderr
     invalid = sofia("grasp", "--force", "-3")
     assert invalid.returncode == 2 and "force_n" in invalid.stderr
+
+
+def test_service_without_hardware_keeps_serving_clear_errors(
+    sofia_proc: Callable[..., Proc], session: zenoh.Session, robot_id: str
+) -> None:
+    proc = sofia_proc("gripper", "serve", "--port", "/nonexistent/ttyUSB9", "--baud", "57600")
+    proc.wait_for_log("gripper service ready", timeout=30)
+    keys = Keys(robot_id)
+    e = err(query(session, keys.gripper_command, b'{"action": "open"}'))
+    assert e.error == "NotReady" and "/nonexistent/ttyUSB9" in e.message
+    state = ok(query(session, keys.gripper_command, b'{"action": "state"}')).state
+    assert state and not state.connected and state.status == "disconnected" and state.position_ticks is None
+    status = ServiceStatus.model_validate_json(
+        query(session, keys.status("gripper"), b"").ok.payload.to_bytes()
+    )  # type: ignore[union-attr]
+    assert status.state == "error" and "/nonexistent/ttyUSB9" in status.detail
+    assert proc.stop() == 0

@@ -39,7 +39,7 @@ def query(
     raise AssertionError(f"no reply to {key}")
 
 
-def wait_until_served(session: zenoh.Session, keys: Keys, timeout: float = 20.0) -> None:
+def wait_until_served(session: zenoh.Session, keys: Keys, timeout: float = 40.0) -> None:
     deadline = time.monotonic() + timeout
     while time.monotonic() < deadline:
         if list(session.get(keys.calibrator_op("samples"), timeout=1.0)):
@@ -57,7 +57,7 @@ def publish_sample(session: zenoh.Session, keys: Keys, k: int, p_cam: np.ndarray
     session.put(keys.blob, encode_blob(BlobObservation(stamp_ns=stamp, position=tuple(map(float, p_cam)))))  # type: ignore[arg-type]
 
 
-def wait_for(pred: Callable[[], bool], timeout: float = 20.0) -> None:
+def wait_for(pred: Callable[[], bool], timeout: float = 40.0) -> None:
     deadline = time.monotonic() + timeout
     while time.monotonic() < deadline:
         if pred():
@@ -95,7 +95,7 @@ def test_service_online_queries_errors_and_restart(
     session.put(keys.flange_pose, b'{"stamp_ns": 1, "translation": [0, 0, "x"]}')
 
     wait_for(lambda: bool(results) and results[-1].n_samples == 8)
-    proc.wait_for_log("the flange was moving")
+    proc.wait_for_log("the flange was moving", timeout=40)
     last = results[-1]
     assert np.abs(np.array(last.matrix) - pr.T_flange_cam).max() < 0.01
     assert last.passes and last.sample_ids == list(range(8))
@@ -175,7 +175,7 @@ def test_service_extracts_the_blob_from_camera_clouds(
     rgb[:] = 240  # no blob in view: rejected with the reason, the service keeps running
     session.put(keys.camera_points, encode_points(cal_session.frames[0].points_cam, stamp_ns=T0_NS + 9 * PERIOD_NS,
                                                   frame_id="cam", rgb=rgb))  # fmt: skip
-    proc.wait_for_log("solved with 5 samples")
+    proc.wait_for_log("solved with 5 samples", timeout=60)
     proc.wait_for_log("no blob found")
     ok, body = query(session, keys.calibrator_op("result"))
     assert ok and body["n_samples"] == 5

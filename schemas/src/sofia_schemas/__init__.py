@@ -1,6 +1,10 @@
-"""SofIA data plane: bus messages, key expressions, the board, PointCloud2 CDR, Zenoh config."""
+"""SofIA data plane: bus messages, key expressions, the board, PointCloud2 CDR, Zenoh config.
 
-from . import keys, pointcloud, transforms
+Frame math lives in :mod:`sofia_schemas.transforms` (needs the ``ros`` extra's scipy); it is not
+imported here, so the gripper installs without scipy.
+"""
+
+from . import keys, pointcloud
 from .board import Board
 from .errors import (
     MissingField,
@@ -41,5 +45,5 @@ __all__ = [
     "MissingField", "PayloadError", "PickTarget", "PointCloud2", "PointCloudError",
     "PointCloudInfo", "PointField", "ServiceStatus", "SizeMismatch", "SofiaError",
     "TruncatedMessage", "UnsupportedEncoding", "ZenohOptions", "add_zenoh_args", "keys",
-    "now_ns", "open_session", "pointcloud", "transforms", "zenoh_config",
+    "now_ns", "open_session", "pointcloud", "zenoh_config",
 ]  # fmt: skip

@@ -1,7 +1,9 @@
 """The small shape every SofIA service shares: logging, clean stop, latest-value hand-over, replies.
 
 Zenoh callbacks only hand data over (:class:`LatestSlot`); the work runs on the service's own
-thread. Query replies go through :func:`reply_json` and :func:`reply_error`.
+thread. Query replies go through :func:`reply_json` and :func:`reply_error`, which also finalise
+the query: a query handed to a worker thread stays open until it is dropped, and the querier's
+``get`` would otherwise wait for its whole timeout and end with a "Timeout" error.
 """
 
 from __future__ import annotations
@@ -88,17 +90,23 @@ class LatestSlot(Generic[T]):
 
 
 def reply_json(query: zenoh.Query, message: BaseModel, key: str | None = None) -> None:
-    """Reply to ``query`` with a pydantic message as JSON."""
-    query.reply(key or str(query.key_expr), message.model_dump_json(), encoding="application/json")
+    """Reply to ``query`` with a pydantic message as JSON, then finalise the query."""
+    try:
+        query.reply(key or str(query.key_expr), message.model_dump_json(), encoding="application/json")
+    finally:
+        query.drop()
 
 
 def reply_error(query: zenoh.Query, error: BaseException | str, key: str | None = None) -> None:
-    """Reply with an :class:`ErrorReply` saying what was wrong (``reply_err``)."""
+    """Reply with an :class:`ErrorReply` saying what was wrong (``reply_err``), then finalise."""
     if isinstance(error, BaseException):
         reply = ErrorReply(error=type(error).__name__, message=str(error), key=key or str(query.key_expr))
     else:
         reply = ErrorReply(error="Error", message=error, key=key or str(query.key_expr))
-    query.reply_err(reply.model_dump_json(), encoding="application/json")
+    try:
+        query.reply_err(reply.model_dump_json(), encoding="application/json")
+    finally:
+        query.drop()
 
 
 def run_worker(name: str, target: Callable[[], None]) -> threading.Thread:

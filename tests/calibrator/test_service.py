@@ -29,7 +29,7 @@ def session() -> Iterator[zenoh.Session]:
 
 
 def query(
-    session: zenoh.Session, key: str, payload: str | None = None, timeout: float = 5.0
+    session: zenoh.Session, key: str, payload: str | None = None, timeout: float = 15.0
 ) -> tuple[bool, dict]:  # type: ignore[type-arg]
     """(ok, JSON body) of the first reply to a query."""
     for reply in session.get(key, payload=payload, timeout=timeout):
@@ -102,6 +102,8 @@ def test_service_online_queries_errors_and_restart(
 
     ok, body = query(session, keys.calibrator_op("result"))
     assert ok and body["n_samples"] == 8 and len(body["matrix"]) == 4
+    ok, body = query(session, keys.status("calibrator"))
+    assert ok and body["service"] == "calibrator" and body["counters"]["samples"] == 8
 
     # add and remove through queries
     s = {"stamp_ns": 5, "p_cam": list(pr.p_cam[2]), "translation": list(pr.T_base_flange[2, :3, 3]),

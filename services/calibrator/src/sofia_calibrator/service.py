@@ -18,7 +18,7 @@ import numpy as np
 import zenoh
 from sofia_schemas import pointcloud, rosmsg
 from sofia_schemas.keys import ENCODING_JSON, Keys, default_robot
-from sofia_schemas.messages import CalibrationResult, now_ns
+from sofia_schemas.messages import CalibrationResult, ServiceStatus, now_ns
 from sofia_schemas.messages.calibration import (
     CalibrationRemove,
     CalibrationSample,
@@ -131,6 +131,7 @@ class Service:
                                                         lambda s: self.put("cloud", s.payload.to_bytes())))  # fmt: skip
         for op in OPS:
             subs.append(self.session.declare_queryable(self.keys.calibrator_op(op), self._on_query(op)))
+        subs.append(self.session.declare_queryable(self.keys.status("calibrator"), self._on_query("status")))
         return subs
 
     def _on_query(self, op: str) -> Any:
@@ -203,6 +204,13 @@ class Service:
             reply_json(query, self.cal.result)
         elif op == "samples":
             self.samples_reply(query)
+        elif op == "status":
+            r = self.cal.result
+            reply_json(query, ServiceStatus(
+                service="calibrator", stamp_ns=now_ns(), state="ok" if r is None or r.passes else "degraded",
+                detail=self.cal.last_error if r is None else ("passes" if r.passes else "fails the lab criterion"),
+                counters={"samples": len(store.samples), "pending": len(self.cal.pending), "dropped": self.dropped},
+            ))  # fmt: skip
         elif op == "add":
             s = store.add(CalibrationSample.model_validate_json(payload))
             log.info("sample %d added by query", s.sample_id)

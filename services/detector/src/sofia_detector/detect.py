@@ -59,10 +59,10 @@ def _to_message(est: ObjectEstimate, board: Board, T_base_board: np.ndarray, noi
 
 def _objects(cloud: np.ndarray, fit: BoardFit, board: Board, params: DetectorParams) -> list[ObjectPoints]:
     half = np.array(board.extent) / 2 + params.field_margin
+    T_board_plane = invert(fit.T_base_board) @ fit.T_base_plane
     if cloud.ndim == 3:
-        T_board_plane = invert(fit.T_base_board) @ fit.T_base_plane
         return list(organized_objects(cloud, fit.m_coarse, fit.T_base_board, T_board_plane, half, params))
-    return list(unorganized_objects(cloud, fit.T_base_board, half, params))
+    return list(unorganized_objects(fit.m_coarse, invert(T_board_plane), half, params))
 
 
 def detect(
@@ -91,8 +91,8 @@ def detect(
         return Detection(**head, status="no_board", detail="the cloud has no points")
     if organized:
         coarse = coords(cloud[:: params.stride, :: params.stride])
-    else:
-        coarse = coords(cloud[:: max(1, -(-cloud.shape[0] // params.max_unorganized_fit_points))])
+    else:  # every point: subsampling an unorganized cloud can leave stripes (a flattened image)
+        coarse = coords(cloud)
     fit = fit_board(coarse, board, params)
     t1 = time.perf_counter()
     timings = {"board_ms": (t1 - t0) * 1e3}
@@ -109,8 +109,9 @@ def detect(
         if obj.b.shape[1] < params.min_points:
             continue
         est = estimate_object(obj.b, obj.boundary_xy, fit.plane.rms, params.curvature)
-        if est.height >= params.min_object_height:
-            objects.append(_to_message(est, board, fit.T_base_board, fit.plane.rms))
+        msg = _to_message(est, board, fit.T_base_board, fit.plane.rms)
+        if est.height >= params.min_object_height and msg.field is not None:  # on the field grid
+            objects.append(msg)
     objects.sort(key=lambda o: (not o.allowed, -o.n_points))
     t3 = time.perf_counter()
     timings.update(segment_ms=(t2 - t1) * 1e3, objects_ms=(t3 - t2) * 1e3, total_ms=(t3 - t0) * 1e3)

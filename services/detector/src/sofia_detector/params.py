@@ -26,7 +26,6 @@ class DetectorParams:
     min_object_height: an object must rise this far above the board.
     curvature: |d| (1/m) of the top fit ``h = a + b x + c y + d r^2`` above which a top is curved.
     cell: occupancy-grid cell of unorganized clouds.
-    max_unorganized_fit_points: subsample size for the plane fit of unorganized clouds.
     """
 
     stride: int = 4
@@ -46,4 +45,3 @@ class DetectorParams:
     min_object_height: float = 0.015
     curvature: float = 3.0
     cell: float = 0.004
-    max_unorganized_fit_points: int = 20000

@@ -89,15 +89,16 @@ def organized_objects(
 
 
 def unorganized_objects(
-    points_base: np.ndarray, T_base_board: np.ndarray, half: np.ndarray, params: DetectorParams
+    m_plane: np.ndarray, T_plane_board: np.ndarray, half: np.ndarray, params: DetectorParams
 ) -> Iterator[ObjectPoints]:
     """Objects of an unorganized cloud.
 
-    points_base: (n, 3) float, base frame, metres. T_base_board: (4, 4) measured board frame.
-    half: (2,) half size of the region where object centres may lie, board frame. Points above the
-    board are binned into ``params.cell`` cells; cells holding at least two points are connected.
+    m_plane: (3, n) float32 coordinates of every point in the plane frame, metres.
+    T_plane_board: (4, 4) measured board frame in the plane frame. half: (2,) half size of the
+    region where object centres may lie, board frame. Points above the board are binned into
+    ``params.cell`` cells; cells holding at least two points are connected.
     """
-    b = change_frame(coords(points_base), T_base_board)
+    b = change_frame(m_plane, T_plane_board)
     grid_half = half + 0.06
     with np.errstate(invalid="ignore"):
         keep = (

@@ -67,11 +67,15 @@ def fit_plane(
     n_in = 0
     for thr in thresholds:
         inl = np.abs(z - (a + b * x + c * y)) < thr
-        n_in = int(np.count_nonzero(inl))
+        xi, yi, zi = x[inl], y[inl], z[inl]
+        n_in = xi.size
         if n_in < min_points:
             return None
-        A = np.stack([x[inl], y[inl], np.ones(n_in, np.float32)]).astype(np.float64)
-        b, c, a = (float(v) for v in np.linalg.solve(A @ A.T, A @ z[inl].astype(np.float64)))
+        sx, sy = float(xi.sum(dtype=np.float64)), float(yi.sum(dtype=np.float64))
+        sxy = float(xi @ yi)
+        M = np.array([[float(xi @ xi), sxy, sx], [sxy, float(yi @ yi), sy], [sx, sy, float(n_in)]])
+        rhs = np.array([float(xi @ zi), float(yi @ zi), float(zi.sum(dtype=np.float64))])
+        b, c, a = (float(v) for v in np.linalg.solve(M, rhs))
     r = z - (a + b * x + c * y)
     r = r[np.abs(r) < thresholds[-1]]
     rms = float(np.sqrt(np.mean(r.astype(np.float64) ** 2))) if r.size else float("nan")

@@ -73,8 +73,8 @@ def test_clouds_in_detections_out_with_pick_and_status(sofia_proc, robot_id: str
     status = ServiceStatus.model_validate_json(statuses.get(timeout=5))
     assert status.service == "detector" and status.counters["processed"] >= 1
     assert {"received", "dropped", "errors"} <= set(status.counters)
-    proc.stop()
-    assert "Traceback" not in proc.log()
+    assert proc.stop() == 0  # SIGTERM: a clean stop
+    assert "detector stopping" in proc.log() and "Traceback" not in proc.log()
 
 
 def test_detect_queryable(sofia_proc, robot_id: str, session, scenes) -> None:  # type: ignore[no-untyped-def]
@@ -154,3 +154,67 @@ def test_camera_frame_cloud_with_flange_pose_and_transform_file(
     assert status.counters["no_transform"] == 1 and "flange pose" in status.detail
     assert status.info["transform"] == f"file {tf}"
     assert proc.popen.poll() is None
+
+
+def test_burst_keeps_only_the_latest_cloud(sofia_proc, robot_id: str, session, scenes) -> None:  # type: ignore[no-untyped-def]
+    keys = Keys(robot_id)
+    proc = sofia_proc("detector", "serve")
+    proc.wait_for_log("detector ready")
+    dets, _sub = _collect(session, keys.detections)
+    _wait_subscribed(session, keys)
+    pub = session.declare_publisher(keys.points)
+    cdr = bytearray(
+        pointcloud.encode_points(scenes["box"].points_base, stamp_ns=STAMP_NS, frame_id="panda_link0")
+    )
+    n = 25
+    for i in range(n):  # as fast as possible: faster than the detector
+        cdr[4:8] = int((STAMP_NS + i) // 1_000_000_000).to_bytes(4, "little")
+        cdr[8:12] = int((STAMP_NS + i) % 1_000_000_000).to_bytes(4, "little")
+        pub.put(bytes(cdr), encoding=ENCODING_CDR_POINTCLOUD2)
+    stamps = []
+    deadline = time.monotonic() + 20
+    while time.monotonic() < deadline and (not stamps or stamps[-1] != STAMP_NS + n - 1):
+        try:
+            stamps.append(Detection.model_validate_json(dets.get(timeout=1)).stamp_ns)
+        except queue.Empty:
+            pass
+    assert stamps[-1] == STAMP_NS + n - 1  # the newest cloud is always processed
+    assert stamps == sorted(stamps)  # never an older cloud after a newer one
+    time.sleep(0.5)
+    status = ServiceStatus.model_validate_json(
+        _get(session, keys.status("detector"))[0].ok.payload.to_bytes()
+    )
+    c = status.counters
+    assert c["received"] == n and c["processed"] == len(stamps)
+    assert c["processed"] + c["dropped"] == c["received"], c
+
+
+def test_transform_from_the_calibrator(sofia_proc, robot_id: str, session, scenes) -> None:  # type: ignore[no-untyped-def]
+    from sofia_schemas.messages import CalibrationResult
+    from sofia_schemas.transforms import matrix_to_quat_xyzw
+
+    keys = Keys(robot_id)
+    proc = sofia_proc("detector", "serve")
+    proc.wait_for_log("detector ready")
+    dets, _sub = _collect(session, keys.detections)
+    _wait_subscribed(session, keys)
+    T = DEFAULT_T_FLANGE_CAM
+    result = CalibrationResult(
+        stamp_ns=99, matrix=T.tolist(), translation=tuple(T[:3, 3]),  # type: ignore[arg-type]
+        quaternion_xyzw=tuple(matrix_to_quat_xyzw(T[:3, :3])),  # type: ignore[arg-type]
+        rpy=(0.0, 0.0, 0.0), target_base=(0.5, 0.0, 0.0), spread_mm=(1.0, 1.0, 1.0), passes=True,
+        n_samples=12, inliers=list(range(12)), outliers=[], residuals_mm=[0.5] * 12,
+        std_translation_mm=(0.1, 0.1, 0.1), std_rotation_deg=(0.01, 0.01, 0.01), dissipation_after=0.1,
+    )  # fmt: skip
+    session.put(keys.calibration_result, result.to_json_bytes(), encoding=ENCODING_JSON)
+    proc.wait_for_log("using T_flange_cam from the calibrator")
+    f = scenes["sphere"].frame
+    session.put(keys.flange_pose, encode_flange_pose(FlangePose.from_matrix(f.T_base_flange, STAMP_NS)))
+    time.sleep(0.3)
+    session.put(
+        keys.camera_points,
+        bytes(pointcloud.encode_points(f.render.points_cam, stamp_ns=STAMP_NS, frame_id="cam")),
+    )
+    det = Detection.model_validate_json(dets.get(timeout=15))
+    assert det.transform == "calibrator result 99"
+    assert np.linalg.norm(np.array(det.objects[0].center) - scenes["sphere"].objects[0].center) < 0.005

@@ -158,6 +158,7 @@ def lab_data() -> str:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--full", action="store_true", help="1000 baseline runs (default 30)")
+    ap.add_argument("--baseline-runs", type=int, default=30, help="baseline problems without --full")
     ap.add_argument("--problems", type=int, default=1000, help="random problems for convergence")
     ap.add_argument("--trials", type=int, default=2000, help="Monte Carlo trials for accuracy")
     ap.add_argument("--seed", type=int, default=0)
@@ -165,7 +166,7 @@ def main() -> None:
     rng = np.random.default_rng(args.seed)
     c = convergence(args.problems, rng)
     a11, a30 = accuracy(11, args.trials, rng), accuracy(30, args.trials, rng)
-    s = speed(1000 if args.full else 30, rng)
+    s = speed(1000 if args.full else args.baseline_runs, rng)
     ms = 1e3
     print("| measure | ours | baseline / bound | ratio |")
     print("|---|---|---|---|")

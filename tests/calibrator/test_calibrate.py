@@ -82,7 +82,7 @@ def test_clear_outlier_is_found_by_robust_statistics() -> None:
     assert cal.outliers == [7]
     assert cal.with_all_samples is not None
     assert np.linalg.norm(cal.translation - pr.T_flange_cam[:3, 3]) < 0.005
-    assert any("clear outliers" in w for w in cal.warnings)
+    assert any("clear outlier(s) by robust statistics" in w for w in cal.warnings)
 
 
 def test_clean_data_has_no_outliers_and_passes() -> None:

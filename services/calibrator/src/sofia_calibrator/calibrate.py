@@ -158,12 +158,13 @@ def calibrate(
         )
     verb = "excluded" if exclude_outliers else "kept (exclude_outliers=False)"
     for kind, group in (
-        ("clear outliers (robust statistics)", clear),
+        ("clear outlier(s) by robust statistics", clear),
         ("the cause of the failed lab criterion", crit),
     ):
         if group:
             names = ", ".join(f"{i} ({everything.residuals_mm[i]:.1f} mm)" for i in group)
-            warnings.append(f"samples {names} are {kind} and were {verb}")
+            noun, be = ("sample", "is") if len(group) == 1 else ("samples", "are")
+            warnings.append(f"{noun} {names} {be} {kind} and {'was' if len(group) == 1 else 'were'} {verb}")
     if outliers:
         warnings.append(
             f"per-axis spread with every sample {np.round(everything.spread_mm, 1).tolist()} mm, without "

@@ -89,3 +89,26 @@ def test_yaml_and_ros_lines_name_the_direction() -> None:
         f"--qw {q[3]:.6f} --frame-id panda_link8 --child-frame-id panda_camera" in msg.ros2_static_transform
     )
     np.testing.assert_allclose(msg.matrix, pr.T_flange_cam, atol=0.01)
+
+
+def test_calibrate_from_joints(tmp_path: Path) -> None:
+    from sofia_calibrator.fk import panda_fk
+
+    rng = np.random.default_rng(0)
+    q = np.array([0.0, -0.5, 0.0, -2.2, 0.0, 1.9, 0.8]) + rng.uniform(-0.35, 0.35, (10, 7))
+    T_fc = make_problem(3, rng).T_flange_cam
+    T_base_cam = panda_fk(q) @ T_fc
+    p_base = T_base_cam[0, :3, 3] + 0.4 * T_base_cam[0, :3, 2]
+    p_cam = np.einsum("nji,nj->ni", T_base_cam[:, :3, :3], p_base - T_base_cam[:, :3, 3])
+    (tmp_path / "joints.txt").write_text("\n".join(" ".join(f"{v:.17g}" for v in r) for r in q) + "\n")
+    (tmp_path / "poses.txt").write_text("\n".join(",".join(f"{v:.17g}" for v in r) for r in p_cam) + "\n")
+    r = sofia(
+        "calibrate",
+        "--poses",
+        str(tmp_path / "poses.txt"),
+        "--joints",
+        str(tmp_path / "joints.txt"),
+        "--json",
+    )
+    assert r.returncode == 0, r.stderr
+    np.testing.assert_allclose(json.loads(r.stdout)["matrix"], T_fc, atol=1e-6)

@@ -32,6 +32,7 @@ from sofia_schemas.zenoh_config import ZenohOptions, zenoh_config
 from .calibrate import calibrate
 from .errors import CalibrationError, InputMismatch
 from .formats import to_message, to_yaml
+from .noise import camera_sigma
 from .pairing import NotPaired, PairingOptions, PoseBuffer
 from .store import SampleStore
 
@@ -85,8 +86,13 @@ class Calibrator:
         guess = (
             None if opts.guess is None else make_transform(np.array(opts.guess[:3]), np.array(opts.guess[3:]))
         )
-        cal = calibrate(p, T, guess=guess, sigma=opts.noise, loss=opts.loss,  # type: ignore[arg-type]
-                        exclude_outliers=opts.exclude_outliers, leave_one_out=len(p) <= 60)  # fmt: skip
+        if opts.noise not in ("depth", "uniform"):
+            raise InputMismatch(f"noise must be 'depth' or 'uniform', got {opts.noise!r}")
+        sigma = camera_sigma(p) if opts.noise == "depth" else np.full_like(p, 1e-3)
+        conf = np.array([s.confidence for s in self.store.ordered()])
+        sigma = sigma / np.clip(conf, 0.05, 1.0)[:, None]  # a less confident blob weighs less
+        cal = calibrate(p, T, guess=guess, sigma=sigma, loss=opts.loss, exclude_outliers=opts.exclude_outliers,
+                        leave_one_out=len(p) <= 60)  # fmt: skip
         self.result = to_message(cal, now_ns(), ids)
         self.result = self.result.model_copy(
             update={"inliers": [ids[i] for i in cal.inliers], "outliers": [ids[i] for i in cal.outliers]}

@@ -71,7 +71,7 @@ def test_service_online_queries_errors_and_restart(
 ) -> None:  # type: ignore[no-untyped-def]
     keys = Keys(robot_id)
     state = tmp_path / "state"
-    proc = sofia_proc("calibrator", "--state-dir", str(state))
+    proc = sofia_proc("calibrator", "serve", "--state-dir", str(state))
     proc.wait_for_log("calibrator ready")
     wait_until_served(session, keys)
 
@@ -133,7 +133,7 @@ def test_service_online_queries_errors_and_restart(
     assert len(log_lines) == 10  # 8 + add + remove
     with lock:
         results.clear()
-    proc2 = sofia_proc("calibrator", "--state-dir", str(state))
+    proc2 = sofia_proc("calibrator", "serve", "--state-dir", str(state))
     proc2.wait_for_log("calibrator ready")
     assert "resumed 8 samples" in proc2.log()
     wait_until_served(session, keys)
@@ -157,7 +157,7 @@ def test_service_extracts_the_blob_from_camera_clouds(
     from sofia_schemas.pointcloud import encode_points
 
     keys = Keys(robot_id)
-    proc = sofia_proc("calibrator", "--state-dir", str(tmp_path / "state"), "--from-clouds")
+    proc = sofia_proc("calibrator", "serve", "--state-dir", str(tmp_path / "state"), "--from-clouds")
     proc.wait_for_log("calibrator ready")
     wait_until_served(session, keys)
     cal_session = make_calibration_session(5, np.random.default_rng(9))

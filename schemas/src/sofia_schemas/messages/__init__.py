@@ -1,7 +1,14 @@
 """Pydantic models of every JSON message on the SofIA bus."""
 
 from .base import SCHEMA_VERSION, ErrorReply, Message, ServiceStatus, now_ns
-from .calibration import CalibrationResult, CalibrationSample
+from .calibration import (
+    CalibrationRemove,
+    CalibrationResult,
+    CalibrationSample,
+    CalibrationSamples,
+    CalibrationSolveOptions,
+    CalibrationSummary,
+)
 from .detection import DetectedObject, Detection
 from .geometry import BlobObservation, FlangePose, PointCloudInfo
 from .gripper import GripperAction, GripperCommand, GripperResult, GripperState
@@ -9,12 +16,14 @@ from .pick import PickTarget
 
 ALL_MESSAGES: tuple[type[Message], ...] = (
     PointCloudInfo, FlangePose, BlobObservation, Detection, DetectedObject, CalibrationSample,
-    CalibrationResult, GripperCommand, GripperResult, GripperState, PickTarget, ErrorReply,
+    CalibrationResult, CalibrationSummary, CalibrationSamples, CalibrationSolveOptions,
+    CalibrationRemove, GripperCommand, GripperResult, GripperState, PickTarget, ErrorReply,
     ServiceStatus,
 )  # fmt: skip
 
 __all__ = [
-    "ALL_MESSAGES", "SCHEMA_VERSION", "BlobObservation", "CalibrationResult", "CalibrationSample",
+    "ALL_MESSAGES", "SCHEMA_VERSION", "BlobObservation", "CalibrationRemove", "CalibrationResult",
+    "CalibrationSample", "CalibrationSamples", "CalibrationSolveOptions", "CalibrationSummary",
     "DetectedObject", "Detection", "ErrorReply", "FlangePose", "GripperAction", "GripperCommand",
     "GripperResult", "GripperState", "Message", "PickTarget", "PointCloudInfo", "ServiceStatus",
     "now_ns",

@@ -40,7 +40,9 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     p.add_argument("--plot", metavar="OUT.png", help="write the dissipation plot")
     p.set_defaults(func=run_calibrate)
 
-    s = sub.add_parser("calibrator", help="online calibrator service (Zenoh)")
+    c = sub.add_parser("calibrator", help="the calibrator service")
+    cs = c.add_subparsers(dest="calibrator_cmd", required=True, metavar="ACTION")
+    s = cs.add_parser("serve", help="run the online calibrator service on Zenoh")
     s.add_argument("--state-dir", default="./var/calibrator", help="append-only sample log and saved results")
     s.add_argument("--from-clouds", action="store_true", help="also extract the blob from camera clouds")
     s.add_argument("--tolerance-ms", type=float, default=50.0, help="pose/blob stamp tolerance")

@@ -10,19 +10,23 @@ Precedence, lowest first:
 4. command-line flags: ``--zenoh-mode``, ``--connect``, ``--listen``.
 
 When connect endpoints are given (a router, as in compose), multicast scouting is turned off:
-discovery goes through the router, and multicast does not cross Docker networks anyway.
+discovery goes through the router, and multicast does not cross Docker networks anyway; the
+session then waits for the router when it is not reachable yet, rather than failing, and
+reconnects by itself after a router restart.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import logging
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import zenoh
 
+log = logging.getLogger(__name__)
 ENV_CONFIG = "SOFIA_ZENOH_CONFIG"
 ENV_MODE = "SOFIA_ZENOH_MODE"
 ENV_CONNECT = "SOFIA_ZENOH_CONNECT"
@@ -30,6 +34,9 @@ ENV_LISTEN = "SOFIA_ZENOH_LISTEN"
 DEFAULT_LISTEN = ["tcp/127.0.0.1:0"]
 DEFAULT_ROUTER_LISTEN = ["tcp/127.0.0.1:7447"]
 MODES = ("peer", "client", "router")
+CONNECT_TIMEOUT_MS = {"router": -1, "peer": -1, "client": -1}
+EXIT_ON_FAILURE = {"router": False, "peer": False, "client": False}
+CONNECT_RETRY = {"period_init_ms": 250, "period_max_ms": 2000, "period_increase_factor": 1.5}
 
 
 def _split(value: str | None) -> list[str]:
@@ -149,6 +156,13 @@ def zenoh_config(options: ZenohOptions | None = None, env: dict[str, str] | None
         conf.insert_json5("scouting/multicast/interface", json.dumps("lo"))
     else:
         conf.insert_json5("scouting/multicast/enabled", "false")
+    if s["connect"]:
+        # wait for the router instead of failing when it is not up yet (or restarting), retrying
+        # every 0.25 s to 2 s; the same retry brings sessions back after a router restart
+        log.info("connecting to %s (waiting until reachable)", ", ".join(s["connect"]))
+        conf.insert_json5("connect/timeout_ms", json.dumps(CONNECT_TIMEOUT_MS))
+        conf.insert_json5("connect/exit_on_failure", json.dumps(EXIT_ON_FAILURE))
+        conf.insert_json5("connect/retry", json.dumps(CONNECT_RETRY))
     return conf
 
 

@@ -1,0 +1,176 @@
+"""End to end: replay 640x480 base-frame clouds at 30 Hz -> detector -> a separate subscriber.
+
+Latency is measured in the subscriber process, which receives both the clouds and the
+detections: latency = arrival of the detection - arrival of the cloud with the same stamp. The
+reference is the frame period (33.3 ms at 30 Hz): a detector that keeps up has p99 below it.
+Also printed: frames lost (clouds without a detection), the detector's own dropped count, CPU
+per process (from /proc) and the detector's memory at the start and the end (flat = no leak).
+
+    .venv/bin/python bench/bench_system.py                 # 60 s (the issue's benchmark)
+    .venv/bin/python bench/bench_system.py --seconds 600   # the 10-minute soak
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import signal
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+import uuid
+from pathlib import Path
+
+import numpy as np
+
+REPO = Path(__file__).resolve().parents[1]
+SOFIA = str(Path(sys.executable).with_name("sofia"))
+CLK_TCK = os.sysconf("SC_CLK_TCK")
+PAGE = os.sysconf("SC_PAGE_SIZE")
+
+
+def cpu_seconds(pid: int) -> float:
+    fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / CLK_TCK
+
+
+def rss_mb(pid: int) -> float:
+    return int(Path(f"/proc/{pid}/statm").read_text().split()[1]) * PAGE / 1e6
+
+
+def subscriber(robot: str, seconds: float, out: Path) -> None:
+    """Runs in its own process: record arrival times of clouds and detections."""
+    import zenoh
+
+    from sofia_schemas import Keys, pointcloud, zenoh_config
+    from sofia_schemas.messages import Detection
+
+    keys = Keys(robot)
+    clouds: dict[int, float] = {}
+    latencies: list[float] = []
+    counts = {"clouds": 0, "detections": 0, "unmatched": 0, "objects": 0}
+    lock = threading.Lock()
+
+    def on_cloud(sample: zenoh.Sample) -> None:
+        t = time.monotonic()
+        stamp = pointcloud.decode(sample.payload.to_bytes()).stamp_ns
+        with lock:
+            clouds[stamp] = t
+            counts["clouds"] += 1
+
+    def on_detection(sample: zenoh.Sample) -> None:
+        t = time.monotonic()
+        det = Detection.model_validate_json(sample.payload.to_bytes())
+        with lock:
+            counts["detections"] += 1
+            counts["objects"] += len(det.objects)
+            t0 = clouds.get(det.stamp_ns)
+            if t0 is None:
+                counts["unmatched"] += 1
+            else:
+                latencies.append(t - t0)
+
+    with zenoh.open(zenoh_config()) as session:
+        session.declare_subscriber(keys.points, on_cloud)
+        session.declare_subscriber(keys.detections, on_detection)
+        print("subscriber ready", flush=True)
+        time.sleep(seconds)
+    with lock:
+        out.write_text(json.dumps({"latencies": latencies, **counts}))
+
+
+def start(args: list[str], env: dict[str, str], log: Path) -> subprocess.Popen[bytes]:
+    return subprocess.Popen(args, stdout=open(log, "wb"), stderr=subprocess.STDOUT, env=env, cwd=REPO)  # noqa: SIM115
+
+
+def wait_log(path: Path, text: str, timeout: float = 60.0) -> None:
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        if path.exists() and text in path.read_text(errors="replace"):
+            return
+        time.sleep(0.1)
+    raise SystemExit(f"{text!r} not in {path}:\n{path.read_text(errors='replace')[-2000:]}")
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--seconds", type=float, default=60.0)
+    ap.add_argument("--rate", type=float, default=30.0, help="cloud rate, Hz")
+    ap.add_argument("--subscriber", nargs=3, metavar=("ROBOT", "SECONDS", "OUT"), help=argparse.SUPPRESS)
+    a = ap.parse_args()
+    if a.subscriber:
+        subscriber(a.subscriber[0], float(a.subscriber[1]), Path(a.subscriber[2]))
+        return 0
+
+    from sofia_replay.synth import write_scene_set
+
+    robot = "bench" + uuid.uuid4().hex[:6]
+    env = dict(os.environ, SOFIA_ROBOT=robot, PYTHONUNBUFFERED="1")
+    tmp = Path(tempfile.mkdtemp(prefix="sofia-e2e-"))
+    rec = tmp / "scenes.mcap"
+    n_frames = int(a.rate)  # one second of clouds, played in a loop
+    write_scene_set(rec, "mixed", n_frames, seed=11, rate_hz=a.rate, frames="base")
+
+    det = start([SOFIA, "detector", "serve"], env, tmp / "detector.log")
+    wait_log(tmp / "detector.log", "detector ready")
+    out = tmp / "sub.json"
+    sub_s = a.seconds + 6.0
+    sub = start([sys.executable, __file__, "--subscriber", robot, str(sub_s), str(out)], env, tmp / "sub.log")
+    wait_log(tmp / "sub.log", "subscriber ready")
+    time.sleep(1.0)
+    rss0 = rss_mb(det.pid)
+    cpu0 = {"detector": cpu_seconds(det.pid), "subscriber": cpu_seconds(sub.pid)}
+    play = start([SOFIA, "replay", "play", str(rec), "--loop"], env, tmp / "replay.log")
+    cpu0["replay"] = 0.0
+    t0 = time.monotonic()
+    rss_samples = [rss0]
+    while time.monotonic() - t0 < a.seconds:
+        time.sleep(min(5.0, a.seconds))
+        rss_samples.append(rss_mb(det.pid))
+    cpu1 = {"replay": cpu_seconds(play.pid), "detector": cpu_seconds(det.pid), "subscriber": cpu_seconds(sub.pid)}
+    elapsed = time.monotonic() - t0
+    play.send_signal(signal.SIGTERM)
+    play.wait(20)
+    sub.wait(sub_s + 30)
+    status = subprocess.run([SOFIA, "query", f"sofia/{robot}/detector/status", "--json"], env=env,
+                            capture_output=True, text=True, timeout=30).stdout  # fmt: skip
+    det.send_signal(signal.SIGTERM)
+    det.wait(20)
+    res = json.loads(out.read_text())
+    lat = np.array(res["latencies"]) * 1000
+    period = 1000.0 / a.rate
+    dropped = "?"
+    for line in status.splitlines():
+        try:
+            dropped = str(json.loads(line)["json"]["counters"].get("dropped", "?"))
+        except (ValueError, KeyError):
+            continue
+    print(f"{a.seconds:.0f} s of 640x480 base-frame clouds replayed at {a.rate:.0f} Hz ({n_frames}-frame synthetic "
+          f"recording in a loop) -> sofia detector serve -> a subscriber in a separate process; 2 CPUs\n")
+    print("| metric | value | reference | ratio |")
+    print("|---|---:|---:|---:|")
+    for name, q in (("latency p50", 50), ("latency p99", 99)):
+        v = float(np.percentile(lat, q)) if lat.size else float("nan")
+        print(f"| {name} | {v:.1f} ms | frame period {period:.1f} ms | {v / period:.2f}x |")
+    mx = float(lat.max()) if lat.size else float("nan")
+    print(f"| latency max | {mx:.1f} ms | frame period {period:.1f} ms | {mx / period:.2f}x |")
+    lost = res["clouds"] - res["detections"]
+    print(f"| clouds received by the subscriber | {res['clouds']} | {a.rate * elapsed:.0f} expected | "
+          f"{res['clouds'] / (a.rate * elapsed):.2f}x |")
+    print(f"| detections received | {res['detections']} | {res['clouds']} clouds | "
+          f"{res['detections'] / max(res['clouds'], 1):.3f}x |")
+    print(f"| frames lost (clouds without detection) | {lost} | 0 | |")
+    print(f"| detector's dropped (stale) clouds | {dropped} | 0 | |")
+    for name in ("replay", "detector", "subscriber"):
+        cpu = (cpu1[name] - cpu0[name]) / elapsed * 100
+        print(f"| CPU {name} | {cpu:.0f} % of one core | 100 % | {cpu / 100:.2f}x |")
+    print(f"| detector memory start -> end (max) | {rss_samples[0]:.0f} -> {rss_samples[-1]:.0f} "
+          f"({max(rss_samples):.0f}) MB | flat | {rss_samples[-1] / rss_samples[0]:.2f}x |")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

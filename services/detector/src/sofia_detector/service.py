@@ -124,13 +124,18 @@ class Detector:
         """Worker loop: queries first, then the newest cloud."""
         while not stop.is_set():
             try:
-                self.answer(self.queries.get(timeout=0.01))
-                continue
+                query = self.queries.get(timeout=0.01)
             except queue.Empty:
-                pass
-            job = self.slot.take(timeout=0.02)
-            if job is not None:
-                self.process(job)
+                query = None
+            job = None if query is not None else self.slot.take(timeout=0.02)
+            try:
+                if query is not None:
+                    self.answer(query)
+                elif job is not None:
+                    self.process(job)
+            except Exception as e:  # an unforeseen failure must not stop the service
+                log.exception("detector worker: unexpected error")
+                self._error(f"unexpected {type(e).__name__}: {e}")
 
     def detect_payload(self, payload: bytes, camera: bool, key: str) -> Detection:
         """Decode a CDR PointCloud2 and detect. Raises ValueError subclasses on bad input."""
@@ -190,6 +195,10 @@ class Detector:
             except ValueError as e:
                 self.counters["query_errors"] += 1
                 log.warning("detect query refused: %s", e)
+                reply_error(query, e)
+            except Exception as e:  # still answer: the caller must not wait for a timeout
+                self.counters["query_errors"] += 1
+                log.exception("detect query failed")
                 reply_error(query, e)
 
     def status(self) -> ServiceStatus:

@@ -112,3 +112,14 @@ def test_holes_do_not_split_objects(scenes, board: Board) -> None:
 def test_params_are_used(scenes, board: Board) -> None:
     det = detect(scenes["box"].points_base, board, DetectorParams(max_height=0.01, seed_height=0.005))
     assert det.status == "no_object"
+
+
+def test_board_partly_out_of_view_is_said(scenes, board: Board) -> None:
+    s = scenes["box"]  # the box is on field (0, 0), the board's -x -y corner
+    truth = s.objects[0]
+    cols = np.flatnonzero(np.isfinite(s.points_base[..., 0]).any(axis=0))
+    cropped = s.points_base[:, : cols[0] + 300]  # cut the +y half of the board away
+    det = detect(cropped, board)
+    assert "board outline not fully seen" in det.detail
+    assert len(det.objects) == 1
+    assert np.linalg.norm(np.array(det.objects[0].center) - truth.center) < CENTER_TOL

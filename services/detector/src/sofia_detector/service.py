@@ -142,7 +142,7 @@ class Detector:
         cloud = pointcloud.decode(payload)
         points = cloud.xyz()
         transform = None
-        if camera or (cloud.frame_id and cloud.frame_id != self.board.frame_id):
+        if camera:  # the key says the frame: clouds on `points` and in queries are in the base frame
             with self._lock:
                 T_flange_cam, transform = self.T_flange_cam, self.transform_name
             if T_flange_cam is None:

@@ -30,6 +30,7 @@ from .bus import Collector, QueryError, ask, wait_until
 
 log = logging.getLogger("sofia.demo")
 SERVICES = ("detector", "calibrator", "gripper")
+OBJECT_WIDTH_MM = 40.0  # the object between the emulated fingers
 
 
 @dataclass
@@ -126,7 +127,9 @@ def run_demo(out: Path, recordings: Path, n_scenes: int = 12, n_poses: int = 12,
         ServiceSpec(
             "calibrator", ["calibrator", "serve", "--state-dir", str(out / "calibrator")], "calibrator"
         ),
-        ServiceSpec("gripper", ["gripper", "serve", "--emulate"], "gripper"),
+        ServiceSpec(
+            "gripper", ["gripper", "serve", "--emulate", "--object-width", str(OBJECT_WIDTH_MM)], "gripper"
+        ),
     ]
     launcher = Launcher(specs, out / "logs", robot)
     say(f"starting services (logs in {out / 'logs'}) ...")
@@ -283,10 +286,12 @@ def _gripper(session: zenoh.Session, keys: Keys, summary: Summary) -> None:
             )
             extra = f", grasped {res.grasped}" if res.grasped is not None else ""
             opening = f"{res.opening_mm:.1f} mm" if res.opening_mm is not None else "?"
+            ok = res.ok
+            if cmd.action == "grasp":  # the emulated object must stop the fingers at its width
+                ok = ok and bool(res.grasped) and abs((res.opening_mm or 0.0) - OBJECT_WIDTH_MM) < 3.0
+                extra += f" (object {OBJECT_WIDTH_MM:.0f} mm)"
             summary.add(
-                f"gripper {cmd.action}",
-                f"{res.reason}, opening {opening}{extra}, {res.duration_s:.2f} s",
-                res.ok,
+                f"gripper {cmd.action}", f"{res.reason}, opening {opening}{extra}, {res.duration_s:.2f} s", ok
             )
         except QueryError as e:
             summary.add(f"gripper {cmd.action}", str(e), False)
@@ -294,18 +299,15 @@ def _gripper(session: zenoh.Session, keys: Keys, summary: Summary) -> None:
 
 def _plots(scenes_mcap: Path, calib_mcap: Path, out: Path, robot: str, summary: Summary) -> None:
     det_png, dis_png = out / "detection.png", out / "dissipation.png"
+    for old in out.glob("detection*.png"):
+        old.unlink()
     r = _sofia("detect", str(scenes_mcap), "--plot", str(det_png), env_robot=robot)
-    summary.add(
-        "detection plot",
-        str(det_png) if r.returncode == 0 else r.stderr[-300:],
-        r.returncode == 0 and det_png.exists(),
-    )
+    plots = sorted(out.glob("detection*.png"))  # one per cloud: detection-<index>.png
+    ok = r.returncode == 0 and len(plots) > 0
+    summary.add("detection plots", f"{len(plots)} in {out}/detection-*.png" if ok else r.stderr[-300:], ok)
     r = _sofia("calibrate", "--mcap", str(calib_mcap), "--plot", str(dis_png), env_robot=robot)
-    summary.add(
-        "dissipation plot",
-        str(dis_png) if r.returncode == 0 else r.stderr[-300:],
-        r.returncode == 0 and dis_png.exists(),
-    )
+    ok = r.returncode == 0 and dis_png.exists()
+    summary.add("dissipation plot", str(dis_png) if ok else r.stderr[-300:], ok)
 
 
 if __name__ == "__main__":

@@ -123,3 +123,29 @@ def test_board_partly_out_of_view_is_said(scenes, board: Board) -> None:
     assert "board outline not fully seen" in det.detail
     assert len(det.objects) == 1
     assert np.linalg.norm(np.array(det.objects[0].center) - truth.center) < CENTER_TOL
+
+
+def _with_mixed_pixels(frame, rng: np.random.Generator) -> np.ndarray:  # type: ignore[no-untyped-def]
+    """The frame's cloud with the pixels the camera dropped at depth edges put back as mixed
+    ("flying") pixels: depths drawn between the nearest and farthest surface around them."""
+    from scipy import ndimage
+    from sofia_replay.synth import Camera
+
+    T = frame.T_base_cam
+    p_true = frame.render.points_base_true
+    d_true = np.where(np.isfinite(p_true[..., 0]), (p_true - T[:3, 3]) @ T[:3, 2], np.nan)
+    d_max = ndimage.maximum_filter(np.nan_to_num(d_true, nan=0.0), 3)
+    d_min = -ndimage.maximum_filter(-np.nan_to_num(d_true, nan=1e3), 3)
+    mixed = np.isnan(frame.points_base[..., 0]) & np.isfinite(d_true) & (d_max - d_min > 0.015)
+    p_cam = Camera().ray_directions_cam() * rng.uniform(d_min, d_max)[..., None]
+    out = frame.points_base.copy()
+    out[mixed] = (p_cam @ T[:3, :3].T + T[:3, 3])[mixed]
+    return out
+
+
+@pytest.mark.parametrize("name", ["box", "cylinder", "sphere"])
+def test_mixed_pixels_along_silhouettes_do_not_move_the_centre(scenes, board: Board, name: str) -> None:
+    s = scenes[name]
+    det = detect(_with_mixed_pixels(s.frame, np.random.default_rng(7)), board)
+    assert len(det.objects) == 1
+    assert _match(det, s.objects)[0][2] < CENTER_TOL

@@ -108,7 +108,7 @@ def detect(
     for obj in found:
         if obj.b.shape[1] < params.min_points:
             continue
-        est = estimate_object(obj.b, obj.boundary_xy, fit.plane.rms, params.curvature)
+        est = estimate_object(obj, fit.plane.rms, params.curvature)
         msg = _to_message(est, board, fit.T_base_board, fit.plane.rms)
         if est.height >= params.min_object_height and msg.field is not None:  # on the field grid
             objects.append(msg)

@@ -14,6 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .outline import min_area_rect
+from .segment import ObjectPoints
 
 
 @dataclass(frozen=True)
@@ -53,22 +54,24 @@ def fit_top(x: np.ndarray, y: np.ndarray, h: np.ndarray) -> tuple[np.ndarray, fl
     return (coef, float(se_d)) if np.all(np.isfinite(coef)) and np.isfinite(se_d) else None
 
 
-def estimate_object(b: np.ndarray, boundary_xy: np.ndarray, noise: float, curvature: float) -> ObjectEstimate:
+def estimate_object(obj: ObjectPoints, noise: float, curvature: float) -> ObjectEstimate:
     """Footprint, height and centre of one object.
 
-    b: (3, n) float32, board frame, metres: the object's points (z = height above the board).
-    boundary_xy: (k, 2) points including every vertex of the convex hull of the footprint.
-    noise: depth noise standard deviation at the board, metres. curvature: the top is a cap when
-    ``d < -curvature`` (1/m) and d is significant (t < -4). The fit uses the top points inside the
-    ellipse inscribed in 70 % of the footprint rectangle, so the visible sides of a flat-topped
-    object do not bend it.
+    obj: the object's points, board frame, metres (z = height above the board). noise: depth noise
+    standard deviation at the board, metres. curvature: the top is a cap when ``d < -curvature``
+    (1/m) and d is significant (t < -4). The fit uses the top points inside the ellipse inscribed
+    in 70 % of the footprint rectangle, so the visible sides of a flat-topped object do not bend
+    it. The footprint of a flat top is the rectangle of the points within 3 sigma of the top
+    height: the top and the upper edge of the visible sides, which project onto the footprint,
+    and not the mixed pixels that a depth camera leaves along silhouettes (they lie outside it).
     """
+    b = obj.b
     h = b[2]
     n = h.size
     k = max(n - 1 - n // 100, 0)
     h_hi = float(np.partition(h, k)[k])  # 99th percentile
     depth = float(np.clip(0.14 * h_hi, 0.004, 0.012))
-    rect = min_area_rect(boundary_xy)
+    rect = min_area_rect(obj.boundary_xy())
     R = rect.R
     mid, half = (rect.lo + rect.hi) / 2, np.maximum(rect.size / 2, 1e-4)
     u = ((R[0, 0] * b[0] + R[1, 0] * b[1]) - mid[0]) / half[0]
@@ -89,8 +92,12 @@ def estimate_object(b: np.ndarray, boundary_xy: np.ndarray, noise: float, curvat
             height = float(coef[0] - (coef[1] ** 2 + coef[2] ** 2) / (4 * coef[3]))
             size = 2 * np.maximum(apex_uv - rect.lo, rect.hi - apex_uv)
     if not curved:
-        center_xy = rect.center
         height = float(np.median(top[2])) if top.shape[1] else h_hi
+        face = h > height - max(3 * noise, 0.004)
+        if np.count_nonzero(face) >= 3:
+            rect = min_area_rect(obj.boundary_xy(face))
+            yaw = rect.yaw
+        center_xy = rect.center
         size = rect.size
     if size[0] < size[1]:
         size = size[::-1]

@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 from sofia_replay import iter_clouds, iter_flange_poses
 from sofia_replay.errors import RecordingError
-from sofia_schemas.keys import TOPIC_FLANGE_POSE
+from sofia_schemas.keys import TOPIC_FLANGE_POSE, TOPIC_POINTS
 
 from .errors import TransformUnavailable, UnreadableFile
 from .frames import FlangeHistory, camera_to_base
@@ -59,9 +59,9 @@ def iter_file_clouds(
     """Every cloud of ``path``.
 
     ``.pcd``/``.ply``/``.npy`` hold one cloud, taken to be in ``frame_id``. ``.mcap``: every
-    PointCloud2 in ``frame_id``; clouds in another frame (the camera) are mapped into ``frame_id``
-    with the recorded flange pose at their stamp and ``T_flange_cam`` (4, 4) when given, and
-    skipped otherwise. Raises UnreadableFile for missing or malformed files.
+    PointCloud2 on the base-frame topic (``/pc_glob``, whatever its frame_id) or in ``frame_id``;
+    clouds in another frame (the camera) are mapped into ``frame_id`` with the recorded flange
+    pose at their stamp and ``T_flange_cam`` (4, 4) when given, and skipped otherwise. Raises UnreadableFile for missing or malformed files.
     """
     path = Path(path)
     if not path.is_file():
@@ -90,7 +90,7 @@ def _mcap_clouds(
     index = 0
     for topic, _log_ns, cloud in iter_clouds(path):
         source = f"{path}:{topic}"
-        if cloud.frame_id == frame_id or not cloud.frame_id:
+        if topic == TOPIC_POINTS or cloud.frame_id == frame_id or not cloud.frame_id:
             yield FileCloud(index, cloud.xyz(), cloud.stamp_ns, frame_id, source)
         elif T_flange_cam is not None:
             if flange is None:

@@ -22,11 +22,27 @@ EIGHT = np.ones((3, 3), dtype=bool)
 
 @dataclass(frozen=True)
 class ObjectPoints:
-    """One object: b (3, n) float32 board-frame coordinates (z = height), metres; boundary_xy (k, 2)
-    points that include every vertex of the convex hull of the footprint."""
+    """One object: b (3, n) float32 board-frame coordinates (z = height), metres. Organized clouds
+    also give each point's pixel (rows, cols) in a window of ``shape``, so that the outline of a
+    subset is found on the pixel grid."""
 
     b: np.ndarray
-    boundary_xy: np.ndarray
+    rows: np.ndarray | None = None
+    cols: np.ndarray | None = None
+    shape: tuple[int, int] = (0, 0)
+
+    def boundary_xy(self, subset: np.ndarray | None = None) -> np.ndarray:
+        """(k, 2) points of ``subset`` ((n,) bool, default all) including every vertex of the
+        convex hull of their footprint."""
+        b = self.b if subset is None else self.b[:, subset]
+        if self.rows is None or self.cols is None:
+            return hull(b[:2].T)
+        rows = self.rows if subset is None else self.rows[subset]
+        cols = self.cols if subset is None else self.cols[subset]
+        index = np.full(self.shape, -1, dtype=np.intp)
+        index[rows, cols] = np.arange(rows.size)
+        br, bc = grid_boundary(index >= 0)
+        return b[:2, index[br, bc]].T
 
 
 def _inside(xy: np.ndarray, half: np.ndarray) -> bool:
@@ -84,8 +100,8 @@ def organized_objects(
             continue
         obj = wl == int(np.argmax(np.bincount(hits)))
         claimed.append((r0, c0, obj))
-        br, bc = grid_boundary(obj)
-        yield ObjectPoints(b[:, obj], np.stack([b[0, br, bc], b[1, br, bc]], axis=1))
+        rows_obj, cols_obj = np.nonzero(obj)
+        yield ObjectPoints(b[:, rows_obj, cols_obj], rows_obj, cols_obj, obj.shape)
 
 
 def unorganized_objects(
@@ -122,4 +138,4 @@ def unorganized_objects(
         pts = b[:, order[bounds[i] : bounds[i + 1]]]
         if pts.shape[1] == 0 or not _inside(pts[:2].mean(axis=1), half):
             continue
-        yield ObjectPoints(pts, hull(pts[:2].T))
+        yield ObjectPoints(pts)

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 import logging
+import os
 import sys
 from pathlib import Path
 
@@ -96,6 +97,14 @@ def _plot_path(out: Path, n: int, total_hint: int) -> Path:
 
 
 def _detect_files(args: argparse.Namespace) -> int:
+    try:
+        return _detect_all(args)
+    except BrokenPipeError:  # `sofia detect ... | head`: the reader has seen enough
+        sys.stdout = open(os.devnull, "w")  # silences the flush at exit
+        return 0
+
+
+def _detect_all(args: argparse.Namespace) -> int:
     board = _board(args.board)
     T_flange_cam = load_transform_file(args.transform) if args.transform else None
     transform_name = f"file {args.transform}" if args.transform else None

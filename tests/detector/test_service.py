@@ -18,6 +18,7 @@ from sofia_schemas.rosmsg import encode_flange_pose
 from sofia_schemas.zenoh_config import zenoh_config
 
 STAMP_NS = 1_700_000_123_000_000_000
+BLOCK = zenoh.CongestionControl.BLOCK  # clouds of 4 MB: Zenoh must not drop them under load
 
 
 @pytest.fixture
@@ -57,7 +58,7 @@ def test_clouds_in_detections_out_with_pick_and_status(sofia_proc, robot_id: str
     picks, _s2 = _collect(session, keys.pick_target)
     statuses, _s3 = _collect(session, keys.status("detector"))
     _wait_subscribed(session, keys)
-    pub = session.declare_publisher(keys.points)
+    pub = session.declare_publisher(keys.points, congestion_control=BLOCK)
     s = scenes["two"]
     for i in range(3):
         cdr = pointcloud.encode_points(s.points_base, stamp_ns=STAMP_NS + i, frame_id="panda_link0")
@@ -101,7 +102,7 @@ def test_detect_queryable(sofia_proc, robot_id: str, session, scenes) -> None:  
     assert Detection.model_validate_json(again[0].ok.payload.to_bytes()).stamp_ns == STAMP_NS
     # no payload: the detection of the latest cloud received on the bus (queried clouds are not)
     assert _get(session, keys.detect)[0].err is not None
-    pub = session.declare_publisher(keys.points)
+    pub = session.declare_publisher(keys.points, congestion_control=BLOCK)
     dets, _sub = _collect(session, keys.detections)
     _wait_subscribed(session, keys)
     pub.put(bytes(pointcloud.encode_points(s.points_base, stamp_ns=STAMP_NS + 5, frame_id="panda_link0")))
@@ -134,7 +135,7 @@ def test_camera_frame_cloud_with_flange_pose_and_transform_file(
     poses.put(encode_flange_pose(FlangePose.from_matrix(T_before, STAMP_NS - 20_000_000)))
     poses.put(FlangePose.from_matrix(T_after, STAMP_NS + 20_000_000).to_json_bytes(), encoding=ENCODING_JSON)
     time.sleep(0.3)
-    cam = session.declare_publisher(keys.camera_points)
+    cam = session.declare_publisher(keys.camera_points, congestion_control=BLOCK)
     cam.put(
         bytes(
             pointcloud.encode_points(
@@ -162,7 +163,8 @@ def test_burst_keeps_only_the_latest_cloud(sofia_proc, robot_id: str, session, s
     proc.wait_for_log("detector ready")
     dets, _sub = _collect(session, keys.detections)
     _wait_subscribed(session, keys)
-    pub = session.declare_publisher(keys.points)
+    # BLOCK: Zenoh itself must not drop any of the burst, so that the service sees all of them
+    pub = session.declare_publisher(keys.points, congestion_control=BLOCK)
     cdr = bytearray(
         pointcloud.encode_points(scenes["box"].points_base, stamp_ns=STAMP_NS, frame_id="panda_link0")
     )

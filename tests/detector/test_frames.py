@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import json
+import threading
+import time
 from pathlib import Path
 
 import numpy as np
@@ -80,3 +82,16 @@ def test_camera_to_base_matches_the_renderer(scenes) -> None:
     assert points.shape == f.points_base.shape
     assert np.allclose(points, f.points_base, atol=1e-5, equal_nan=True)
     assert np.allclose(make_transform(T_base_cam[:3, 3], matrix_to_quat_xyzw(T_base_cam[:3, :3])), T_base_cam)
+
+
+def test_a_pose_arriving_after_its_cloud_is_waited_for() -> None:
+    """Poses and clouds travel on different keys: the cloud's pose may come a moment later."""
+    history = FlangeHistory()
+    T = np.eye(4)
+    T[:3, 3] = (0.4, 0.1, 0.5)
+    assert not history.wait_covered(1_000, 0.05)  # nothing arrives: times out
+    threading.Timer(0.1, history.add, args=(1_000, T)).start()
+    t0 = time.monotonic()
+    assert history.wait_covered(1_000, 2.0)
+    assert time.monotonic() - t0 < 1.0
+    np.testing.assert_allclose(history.at(1_000), T)

@@ -72,16 +72,28 @@ class FlangeHistory:
     def __init__(self, maxlen: int = 400, tolerance_ns: int = DEFAULT_TOLERANCE_NS) -> None:
         self._poses: deque[tuple[int, np.ndarray]] = deque(maxlen=maxlen)
         self._lock = threading.Lock()
+        self._arrived = threading.Condition(self._lock)
         self.tolerance_ns = tolerance_ns
 
     def add(self, stamp_ns: int, T_base_flange: np.ndarray) -> None:
-        with self._lock:
+        with self._arrived:
             if self._poses and stamp_ns < self._poses[-1][0]:
                 items = sorted([*self._poses, (stamp_ns, T_base_flange)], key=lambda p: p[0])
                 self._poses.clear()
                 self._poses.extend(items)
             else:
                 self._poses.append((stamp_ns, T_base_flange))
+            self._arrived.notify_all()
+
+    def wait_covered(self, stamp_ns: int, timeout_s: float) -> bool:
+        """Wait up to ``timeout_s`` until a pose at or after ``stamp_ns`` has arrived.
+
+        Poses and clouds travel on different keys, so the pose of a cloud's stamp may arrive just
+        after the cloud. Returns False on timeout (``at`` then uses what has arrived)."""
+        with self._arrived:
+            return self._arrived.wait_for(
+                lambda: bool(self._poses) and self._poses[-1][0] >= stamp_ns, timeout_s
+            )
 
     def __len__(self) -> int:
         return len(self._poses)

@@ -40,6 +40,7 @@ from .pick import PickParams, first_pick
 
 log = logging.getLogger("sofia.detector")
 STATUS_PERIOD_S = 1.0
+POSE_WAIT_S = 0.3  # how long a camera cloud waits for the flange pose of its stamp
 
 
 @dataclass
@@ -150,6 +151,7 @@ class Detector:
                     f"cloud in frame {cloud.frame_id!r} and no flange->camera transform: start with "
                     "--transform FILE or run the calibrator"
                 )
+            self.flange.wait_covered(cloud.stamp_ns, POSE_WAIT_S)
             points = camera_to_base(points, self.flange.at(cloud.stamp_ns) @ T_flange_cam)
         t0 = time.perf_counter()
         det = detect(points, self.board, self.config.params, stamp_ns=cloud.stamp_ns, source=key)

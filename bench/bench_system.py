@@ -44,7 +44,6 @@ def rss_mb(pid: int) -> float:
 def subscriber(robot: str, seconds: float, out: Path) -> None:
     """Runs in its own process: record arrival times of clouds and detections."""
     import zenoh
-
     from sofia_schemas import Keys, pointcloud, zenoh_config
     from sofia_schemas.messages import Detection
 
@@ -83,7 +82,7 @@ def subscriber(robot: str, seconds: float, out: Path) -> None:
 
 
 def start(args: list[str], env: dict[str, str], log: Path) -> subprocess.Popen[bytes]:
-    return subprocess.Popen(args, stdout=open(log, "wb"), stderr=subprocess.STDOUT, env=env, cwd=REPO)  # noqa: SIM115
+    return subprocess.Popen(args, stdout=open(log, "wb"), stderr=subprocess.STDOUT, env=env, cwd=REPO)
 
 
 def wait_log(path: Path, text: str, timeout: float = 60.0) -> None:
@@ -130,7 +129,11 @@ def main() -> int:
     while time.monotonic() - t0 < a.seconds:
         time.sleep(min(5.0, a.seconds))
         rss_samples.append(rss_mb(det.pid))
-    cpu1 = {"replay": cpu_seconds(play.pid), "detector": cpu_seconds(det.pid), "subscriber": cpu_seconds(sub.pid)}
+    cpu1 = {
+        "replay": cpu_seconds(play.pid),
+        "detector": cpu_seconds(det.pid),
+        "subscriber": cpu_seconds(sub.pid),
+    }
     elapsed = time.monotonic() - t0
     play.send_signal(signal.SIGTERM)
     play.wait(20)
@@ -148,8 +151,10 @@ def main() -> int:
             dropped = str(json.loads(line)["json"]["counters"].get("dropped", "?"))
         except (ValueError, KeyError):
             continue
-    print(f"{a.seconds:.0f} s of 640x480 base-frame clouds replayed at {a.rate:.0f} Hz ({n_frames}-frame synthetic "
-          f"recording in a loop) -> sofia detector serve -> a subscriber in a separate process; 2 CPUs\n")
+    print(
+        f"{a.seconds:.0f} s of 640x480 base-frame clouds replayed at {a.rate:.0f} Hz ({n_frames}-frame synthetic "
+        f"recording in a loop) -> sofia detector serve -> a subscriber in a separate process; 2 CPUs\n"
+    )
     print("| metric | value | reference | ratio |")
     print("|---|---:|---:|---:|")
     for name, q in (("latency p50", 50), ("latency p99", 99)):
@@ -158,17 +163,23 @@ def main() -> int:
     mx = float(lat.max()) if lat.size else float("nan")
     print(f"| latency max | {mx:.1f} ms | frame period {period:.1f} ms | {mx / period:.2f}x |")
     lost = res["clouds"] - res["detections"]
-    print(f"| clouds received by the subscriber | {res['clouds']} | {a.rate * elapsed:.0f} expected | "
-          f"{res['clouds'] / (a.rate * elapsed):.2f}x |")
-    print(f"| detections received | {res['detections']} | {res['clouds']} clouds | "
-          f"{res['detections'] / max(res['clouds'], 1):.3f}x |")
+    print(
+        f"| clouds received by the subscriber | {res['clouds']} | {a.rate * elapsed:.0f} expected | "
+        f"{res['clouds'] / (a.rate * elapsed):.2f}x |"
+    )
+    print(
+        f"| detections received | {res['detections']} | {res['clouds']} clouds | "
+        f"{res['detections'] / max(res['clouds'], 1):.3f}x |"
+    )
     print(f"| frames lost (clouds without detection) | {lost} | 0 | |")
     print(f"| detector's dropped (stale) clouds | {dropped} | 0 | |")
     for name in ("replay", "detector", "subscriber"):
         cpu = (cpu1[name] - cpu0[name]) / elapsed * 100
         print(f"| CPU {name} | {cpu:.0f} % of one core | 100 % | {cpu / 100:.2f}x |")
-    print(f"| detector memory start -> end (max) | {rss_samples[0]:.0f} -> {rss_samples[-1]:.0f} "
-          f"({max(rss_samples):.0f}) MB | flat | {rss_samples[-1] / rss_samples[0]:.2f}x |")
+    print(
+        f"| detector memory start -> end (max) | {rss_samples[0]:.0f} -> {rss_samples[-1]:.0f} "
+        f"({max(rss_samples):.0f}) MB | flat | {rss_samples[-1] / rss_samples[0]:.2f}x |"
+    )
     return 0
 
 

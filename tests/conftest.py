@@ -31,7 +31,7 @@ class Proc:
     def __init__(self, args: list[str], log_path: Path, env: dict[str, str]) -> None:
         self.args = args
         self.log_path = log_path
-        self._log = open(log_path, "wb")  # noqa: SIM115 - closed in stop()
+        self._log = open(log_path, "wb")
         self.popen = subprocess.Popen(
             [SOFIA, *args], stdout=self._log, stderr=subprocess.STDOUT, env=env, cwd=REPO,
             start_new_session=True,
@@ -47,9 +47,13 @@ class Proc:
             if text in self.log():
                 return
             if self.popen.poll() is not None:
-                raise AssertionError(f"sofia {' '.join(self.args)} exited {self.popen.returncode}:\n{self.log()}")
+                raise AssertionError(
+                    f"sofia {' '.join(self.args)} exited {self.popen.returncode}:\n{self.log()}"
+                )
             time.sleep(0.05)
-        raise AssertionError(f"{text!r} not in log of sofia {' '.join(self.args)} after {timeout}s:\n{self.log()}")
+        raise AssertionError(
+            f"{text!r} not in log of sofia {' '.join(self.args)} after {timeout}s:\n{self.log()}"
+        )
 
     def stop(self, sig: int = signal.SIGTERM, timeout: float = 10.0) -> int:
         if self.popen.poll() is None:

@@ -6,7 +6,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 from sofia_replay import iter_clouds, iter_flange_poses, read_truth
 from sofia_replay.synth import (
     DEFAULT_T_FLANGE_CAM,

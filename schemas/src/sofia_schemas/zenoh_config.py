@@ -159,7 +159,7 @@ def zenoh_config(options: ZenohOptions | None = None, env: dict[str, str] | None
     if s["connect"]:
         # wait for the router instead of failing when it is not up yet (or restarting), retrying
         # every 0.25 s to 2 s; the same retry brings sessions back after a router restart
-        log.info("connecting to %s (waiting until reachable)", ", ".join(s["connect"]))
+        log.info("connecting to %s (waiting until reachable)", s["connect"])
         conf.insert_json5("connect/timeout_ms", json.dumps(CONNECT_TIMEOUT_MS))
         conf.insert_json5("connect/exit_on_failure", json.dumps(EXIT_ON_FAILURE))
         conf.insert_json5("connect/retry", json.dumps(CONNECT_RETRY))

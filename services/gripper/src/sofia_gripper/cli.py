@@ -46,7 +46,9 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
         s = gs.add_parser(name, help="run the gripper service")
         _add_servo_args(s)
         add_zenoh_args(s)
-        s.add_argument("--emulate", action="store_true", help="run against an in-process MX-64 emulator")
+        s.add_argument(
+            "--emulate", action="store_true", help="run against an emulated MX-64 (its own process)"
+        )
         s.add_argument("--object-width", type=float, metavar="MM", help="emulated object width (--emulate)")
         s.set_defaults(func=_serve)
 
@@ -60,6 +62,8 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     e.add_argument("--baud", type=int, default=57600)
     e.add_argument("--id", type=int, dest="dxl_id", default=1)
     e.add_argument("--link", type=Path, help="also make this symlink to the tty (stable path)")
+    e.add_argument("--config", type=Path, help="gripper YAML config the emulated mechanism follows")
+    e.add_argument("--exit-with-stdin", action="store_true", help="stop when stdin closes (the parent died)")
     e.set_defaults(func=_emulate)
 
     c = gs.add_parser("calibrate", help="record the open and closed positions into a config file")
@@ -98,7 +102,8 @@ def _serve(args: argparse.Namespace) -> int:
 def _emulate(args: argparse.Namespace) -> int:
     from .emulator import Emulator
 
-    emu = Emulator(int(args.protocol), args.baud, args.dxl_id, args.object_width, link_path=args.link)  # type: ignore[arg-type]
+    config = load_config(args.config) if args.config else None
+    emu = Emulator(int(args.protocol), args.baud, args.dxl_id, args.object_width, config, link_path=args.link)  # type: ignore[arg-type]
     stop = StopFlag()
     print(emu.start(), flush=True)
 
@@ -108,6 +113,8 @@ def _emulate(args: argparse.Namespace) -> int:
                 print(emu.control(line), flush=True)
             except ValueError as e:
                 print(f"bad value in {line.strip()!r}: {e}", flush=True)
+        if args.exit_with_stdin:
+            stop.set()
 
     threading.Thread(target=console, daemon=True).start()
     stop.wait()

@@ -14,6 +14,8 @@ from __future__ import annotations
 
 import logging
 import queue
+import subprocess
+import sys
 import tempfile
 from dataclasses import dataclass
 from pathlib import Path
@@ -27,9 +29,8 @@ from sofia_schemas.messages import GripperCommand, GripperState, ServiceStatus, 
 from sofia_schemas.service import StopFlag, reply_error, reply_json, run_worker
 from sofia_schemas.zenoh_config import ZenohOptions, zenoh_config
 
-from .config import GripperConfig
+from .config import GripperConfig, save_config
 from .driver import Gripper
-from .emulator import Emulator
 from .errors import GripperError
 
 log = logging.getLogger(__name__)
@@ -103,6 +104,42 @@ class GripperService:
         )  # fmt: skip
 
 
+@dataclass
+class EmulatorProcess:
+    """``sofia gripper emulate`` running beside the service, as a real servo would: in its own
+    process, so its timing does not depend on the service's threads."""
+
+    popen: subprocess.Popen[str]
+    path: str
+
+    def stop(self) -> None:
+        self.popen.terminate()
+        try:
+            self.popen.wait(5)
+        except subprocess.TimeoutExpired:
+            self.popen.kill()
+            self.popen.wait(5)
+
+
+def start_emulator(gconf: GripperConfig, object_width_mm: float | None, workdir: Path) -> EmulatorProcess:
+    """Start an emulated MX-64 following ``gconf`` and return its tty path."""
+    config_file = workdir / "gripper.yaml"
+    save_config(gconf, config_file)
+    sofia = Path(sys.executable).with_name("sofia")
+    cmd = [str(sofia), "gripper", "emulate", "--protocol", f"{float(gconf.protocol):.1f}", "--baud", str(gconf.baud),
+           "--id", str(gconf.dxl_id), "--link", str(workdir / "ttyDXL"), "--config", str(config_file), "--exit-with-stdin"]  # fmt: skip
+    if object_width_mm is not None:
+        cmd += ["--object-width", str(object_width_mm)]
+    popen = subprocess.Popen(cmd, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+    assert popen.stdout is not None
+    path = popen.stdout.readline().strip()
+    if not path:
+        popen.kill()
+        raise GripperError(f"the emulator did not start (exit {popen.wait(5)}): {' '.join(cmd)}")
+    log.info("emulated MX-64 on %s (pid %d)", path, popen.pid)
+    return EmulatorProcess(popen, path)
+
+
 def main(config: ServiceConfig) -> int:
     """Run the service until SIGINT/SIGTERM."""
     stop = StopFlag()
@@ -110,10 +147,8 @@ def main(config: ServiceConfig) -> int:
     gconf, emulator, tmp = config.gripper, None, None
     if config.emulate:
         tmp = tempfile.TemporaryDirectory(prefix="sofia-gripper-")
-        emulator = Emulator(
-            gconf.protocol, gconf.baud, gconf.dxl_id, config.object_width_mm, gconf, Path(tmp.name) / "ttyDXL"
-        )
-        gconf = gconf.model_copy(update={"port": emulator.start()})
+        emulator = start_emulator(gconf, config.object_width_mm, Path(tmp.name))
+        gconf = gconf.model_copy(update={"port": emulator.path})
     with zenoh.open(zenoh_config(config.zenoh)) as session:
         state_pub = session.declare_publisher(keys.gripper_state)
         status_pub = session.declare_publisher(keys.status("gripper"))

@@ -1,4 +1,4 @@
-"""ruff and mypy on the gripper package and its tests."""
+"""The gripper image stays small: its code pulls in no open3d, scipy, replay, detector or calibrator."""
 
 from __future__ import annotations
 
@@ -8,25 +8,10 @@ import sys
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[2]
-BIN = Path(sys.executable).parent
-PATHS = ["services/gripper/src", "tests/gripper", "bench/bench_gripper.py"]
 
 
 def run(*args: str) -> subprocess.CompletedProcess[str]:
     return subprocess.run(args, cwd=REPO, capture_output=True, text=True, timeout=240)
-
-
-def test_ruff() -> None:
-    paths = [p for p in PATHS if (REPO / p).exists()]
-    lint = run(str(BIN / "ruff"), "check", *paths)
-    assert lint.returncode == 0, lint.stdout
-    fmt = run(str(BIN / "ruff"), "format", "--check", *paths)
-    assert fmt.returncode == 0, fmt.stdout
-
-
-def test_mypy() -> None:
-    result = run(str(BIN / "mypy"), "services/gripper/src")
-    assert result.returncode == 0, result.stdout
 
 
 def test_no_heavy_imports() -> None:

@@ -51,7 +51,7 @@ class System:
 
     def replay(self, path: Path, *args: str, timeout: float = 120) -> subprocess.CompletedProcess[str]:
         env = dict(os.environ, SOFIA_ROBOT=self.robot)
-        cmd = [SOFIA, "replay", "play", str(path), "--robot", self.robot, *args]
+        cmd = [SOFIA, "replay", "play", str(path), "--robot", self.robot, "--wait-subscribers", "10", *args]
         return subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=timeout)
 
     def healthy(self, timeout: float = 60) -> bool:
@@ -92,10 +92,18 @@ def system(tmp_path_factory: pytest.TempPathFactory) -> Iterator[System]:
 
 
 def _check_detections(dets: list[Detection], truth: dict) -> None:
+    """Every frame of ``truth`` has a detection in ``dets``, and each is right."""
     by_stamp = {d.stamp_ns: d for d in dets}
-    for frame in truth["frames"]:
-        det = by_stamp.get(frame["stamp_ns"])
-        assert det is not None, f"no detection for frame {frame['stamp_ns']}"
+    missing = [f["stamp_ns"] for f in truth["frames"] if f["stamp_ns"] not in by_stamp]
+    assert not missing, f"no detection for frames {missing}"
+    _check_each(dets, truth)
+
+
+def _check_each(dets: list[Detection], truth: dict) -> None:
+    """Each detection in ``dets`` agrees with the truth of its frame."""
+    frames = {f["stamp_ns"]: f for f in truth["frames"]}
+    for det in dets:
+        frame = frames[det.stamp_ns]
         if not frame["objects"]:
             assert det.status == "no_object" and det.objects == []
             continue
@@ -219,7 +227,9 @@ def test_services_killed_mid_stream_come_back(system: System) -> None:
             assert system.launcher.procs[name].restarts >= 1
             # the subscriber keeps receiving detections (from the restarted detector, too)
             assert wait_until(lambda n=n: len(dets) > n + 3, 30)
-        _check_detections(dets.items[-6:], truth)
+        # the detector drops stale clouds while it restarts, so not every frame has a detection;
+        # every detection it published is right
+        _check_each(dets.items, truth)
     finally:
         player.terminate()
         player.wait(10)

@@ -40,7 +40,7 @@ def register_replay(sub: argparse._SubParsersAction) -> None:  # type: ignore[ty
     )  # fmt: skip
     play.add_argument(
         "--wait-subscribers", type=float, default=0.0, metavar="S",
-        help="wait up to S s for a subscriber before playing",
+        help="wait up to S s until every key has a subscriber before playing",
     )  # fmt: skip
     play.add_argument("--progress", type=float, default=5.0, metavar="S", help="progress log period")
     add_zenoh_args(play)

@@ -166,16 +166,19 @@ class Player:
         return pub
 
     def wait_for_subscribers(self, stop: StopFlag) -> bool:
-        """Wait up to ``wait_subscribers_s`` until some publisher has a matching subscriber."""
+        """Wait up to ``wait_subscribers_s`` until every publisher has a matching subscriber (a
+        subscriber of only some keys makes it wait the whole time, then play anyway)."""
         deadline = time.monotonic() + self.options.wait_subscribers_s
         while time.monotonic() < deadline and not stop.is_set():
-            if any(p.matching_status for p in self._publishers.values()):
+            if all(p.matching_status for p in self._publishers.values()):
                 return True
             stop.wait(0.05)
-        found = any(p.matching_status for p in self._publishers.values())
-        if not found:
-            log.warning("no subscriber after %.1f s, playing anyway", self.options.wait_subscribers_s)
-        return found
+        missing = [str(p.key_expr) for p in self._publishers.values() if not p.matching_status]
+        if missing:
+            log.warning(
+                "no subscriber on %s after %.1f s, playing anyway", missing, self.options.wait_subscribers_s
+            )
+        return not missing
 
     # --- status -----------------------------------------------------------
     def status(self, position_s: float) -> ServiceStatus:

@@ -66,7 +66,16 @@ def detections(session: zenoh.Session, keys: Keys, scenes_mcap: Path, robot: str
     time.sleep(1.0)
     say(f"replaying {scenes_mcap} on {keys.points} ...")
     played = sofia(
-        "replay", "play", str(scenes_mcap), "--topic", TOPIC_POINTS, "--robot", robot, env_robot=robot
+        "replay",
+        "play",
+        "--wait-subscribers",
+        "10",
+        str(scenes_mcap),
+        "--topic",
+        TOPIC_POINTS,
+        "--robot",
+        robot,
+        env_robot=robot,
     )
     wait_until(lambda: len(dets) >= len(frames), 10)
     dets.close()
@@ -101,7 +110,7 @@ def calibration(session: zenoh.Session, keys: Keys, calib_mcap: Path, robot: str
     if not reset_ok:
         summary.add("calibrator reset", f"no reply on {keys.calibrator_op('reset')}", False)
     say(f"replaying {calib_mcap} (blob observations + flange poses) into the calibrator ...")
-    played = sofia("replay", "play", str(calib_mcap), "--rate", "4", "--robot", robot,
+    played = sofia("replay", "play", "--wait-subscribers", "10", str(calib_mcap), "--rate", "4", "--robot", robot,
                     "--topic", TOPIC_BLOB, "--topic", TOPIC_FLANGE_POSE, env_robot=robot)  # fmt: skip
     wait_until(
         lambda: len(results) > 0 and results.items[-1].n_samples >= len(truth.get("frames", [])) - 1, 15
@@ -141,7 +150,7 @@ def camera_frame(session: zenoh.Session, keys: Keys, scenes_mcap: Path, robot: s
     time.sleep(0.5)
     say(f"replaying camera-frame clouds and flange poses of {scenes_mcap} ...")
     args = ["--topic", TOPIC_CAMERA_POINTS, "--topic", TOPIC_FLANGE_POSE, "--robot", robot]
-    played = sofia("replay", "play", str(scenes_mcap), *args, env_robot=robot)
+    played = sofia("replay", "play", "--wait-subscribers", "10", str(scenes_mcap), *args, env_robot=robot)
     wait_until(lambda: len(dets) >= len(frames), 10)
     dets.close()
     errors = [e for d in dets.items if (e := _match_error_mm(d, frames)[1]) is not None]

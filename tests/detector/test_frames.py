@@ -95,3 +95,16 @@ def test_a_pose_arriving_after_its_cloud_is_waited_for() -> None:
     assert history.wait_covered(1_000, 2.0)
     assert time.monotonic() - t0 < 1.0
     np.testing.assert_allclose(history.at(1_000), T)
+
+
+def test_a_jump_back_in_time_starts_a_new_history() -> None:
+    """Poses of another recording (or a restarted replay) are never mixed with the old ones."""
+    history = FlangeHistory()
+    T_old, T_new = np.eye(4), np.eye(4)
+    T_old[:3, 3], T_new[:3, 3] = (1.0, 0.0, 0.0), (0.0, 1.0, 0.0)
+    history.add(10_000_000_000, T_old)
+    history.add(5_000_000_000, T_new)  # 5 s back: a new time line
+    assert len(history) == 1
+    np.testing.assert_allclose(history.at(5_000_000_000), T_new)
+    history.add(5_000_000_000 - 10_000_000, T_old)  # 10 ms back: reordered, kept
+    assert len(history) == 2

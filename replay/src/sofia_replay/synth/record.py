@@ -26,7 +26,8 @@ from .scene import DEFAULT_T_FLANGE_CAM, SceneKind, make_scene, render_scene
 
 log = logging.getLogger(__name__)
 
-START_NS = 1_700_000_000_000_000_000
+START_NS = 1_700_000_000_000_000_000  # board scenes
+CALIBRATION_START_NS = START_NS - 3_600_000_000_000  # calibration sessions: an hour earlier
 CAMERA_FRAME = "camera_color_optical_frame"
 SCENE_KINDS = ("one", "empty", "nonred", "two", "mixed")
 MIXED_CYCLE: tuple[SceneKind, ...] = ("one", "one", "two", "nonred", "one", "empty")
@@ -122,7 +123,9 @@ def write_calibration_session(
     """Render a calibration session and write it to ``path``; returns the session (with truth)."""
     rng = np.random.default_rng(seed)
     camera = Camera()
-    session = make_calibration_session(n_poses, rng, T_flange_cam, camera=camera, start_ns=START_NS)
+    session = make_calibration_session(
+        n_poses, rng, T_flange_cam, camera=camera, start_ns=CALIBRATION_START_NS
+    )
     period = session.frames[1].stamp_ns - session.frames[0].stamp_ns if n_poses > 1 else 2_000_000_000
     still_ns = 200_000_000  # the arm rests 0.2 s before and after each capture
     with McapWriter(path) as w:

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import os
 import subprocess
-import time
 from pathlib import Path
 
 import numpy as np
@@ -50,7 +49,9 @@ def _match_error_mm(det: Detection, truth_frames: dict[int, dict]) -> tuple[str,
     )
 
 
-def detections(session: zenoh.Session, keys: Keys, scenes_mcap: Path, robot: str, summary: Summary) -> None:
+def _replay_and_check(session: zenoh.Session, keys: Keys, scenes_mcap: Path, robot: str, topics: list[str],
+                      step: str, summary: Summary) -> bool:  # fmt: skip
+    """Replay ``topics`` of the scene recording and print each detection against the truth."""
     truth = read_truth(scenes_mcap) or {}
     frames = {int(f["stamp_ns"]): f for f in truth.get("frames", [])}
     errors: list[float] = []
@@ -59,41 +60,43 @@ def detections(session: zenoh.Session, keys: Keys, scenes_mcap: Path, robot: str
         text, err = _match_error_mm(det, frames)
         if err is not None:
             errors.append(err)
-        say(f"  detection @ {det.stamp_ns}: {text}")
+        used = f" [{det.transform}]" if det.transform else ""
+        say(f"  detection @ {det.stamp_ns}: {text}{used}")
 
-    picks = Collector(session, keys.pick_target, PickTarget)
     dets = Collector(session, keys.detections, Detection, show)
-    time.sleep(1.0)
-    say(f"replaying {scenes_mcap} on {keys.points} ...")
+    say(f"replaying {', '.join(topics)} of {scenes_mcap} ...")
+    args = [a for t in topics for a in ("--topic", t)]
     played = sofia(
         "replay",
         "play",
         "--wait-subscribers",
         "10",
         str(scenes_mcap),
-        "--topic",
-        TOPIC_POINTS,
+        *args,
         "--robot",
         robot,
         env_robot=robot,
     )
     wait_until(lambda: len(dets) >= len(frames), 10)
     dets.close()
-    picks.close()
-    n = len(dets)
-    # every board-frame cloud yields exactly one detection; the recording also carries camera-frame clouds
-    # which the detector handles once a flange->camera transform is known
-    base_frames = len(frames)
-    ok = (
-        played.returncode == 0
-        and n >= base_frames
-        and all(np.isfinite(errors))
-        and (max(errors, default=0) < 10)
+    worst = max(errors, default=float("nan"))
+    ok = played.returncode == 0 and len(dets) >= len(frames) and bool(errors) and worst < 10
+    mean = float(np.mean(errors)) if errors else float("nan")
+    summary.add(
+        step,
+        f"{len(dets)} detections for {len(frames)} frames, centre error max {worst:.1f} mm, mean {mean:.1f} mm",
+        ok,
     )
-    summary.add("replay -> detector", f"{n} detections for {base_frames} frames, centre error max "
-                f"{max(errors, default=float('nan')):.1f} mm, mean {np.mean(errors) if errors else float('nan'):.1f} mm", ok)  # fmt: skip
     if played.returncode != 0:
         say(played.stderr[-2000:])
+    return ok
+
+
+def detections(session: zenoh.Session, keys: Keys, scenes_mcap: Path, robot: str, summary: Summary) -> None:
+    """Base-frame clouds (the lab's /pc_glob) -> detections, pick targets and a detect query."""
+    picks = Collector(session, keys.pick_target, PickTarget)
+    _replay_and_check(session, keys, scenes_mcap, robot, [TOPIC_POINTS], "replay -> detector", summary)
+    picks.close()
     summary.add("pick targets", f"{len(picks)} published on {keys.pick_target}", len(picks) > 0)
     try:
         det = ask(session, keys.detect, Detection)
@@ -144,24 +147,8 @@ def calibration(session: zenoh.Session, keys: Keys, calib_mcap: Path, robot: str
 
 def camera_frame(session: zenoh.Session, keys: Keys, scenes_mcap: Path, robot: str, summary: Summary) -> None:
     """Camera-frame clouds + flange poses, mapped to the base frame with the calibrated transform."""
-    truth = read_truth(scenes_mcap) or {}
-    frames = {int(f["stamp_ns"]): f for f in truth.get("frames", [])}
-    dets = Collector(session, keys.detections, Detection)
-    time.sleep(0.5)
-    say(f"replaying camera-frame clouds and flange poses of {scenes_mcap} ...")
-    args = ["--topic", TOPIC_CAMERA_POINTS, "--topic", TOPIC_FLANGE_POSE, "--robot", robot]
-    played = sofia("replay", "play", "--wait-subscribers", "10", str(scenes_mcap), *args, env_robot=robot)
-    wait_until(lambda: len(dets) >= len(frames), 10)
-    dets.close()
-    errors = [e for d in dets.items if (e := _match_error_mm(d, frames)[1]) is not None]
-    used = sorted({d.transform or "none" for d in dets.items})
-    ok = played.returncode == 0 and len(dets) >= len(frames) and bool(errors) and max(errors) < 10
-    worst = max(errors, default=float("nan"))
-    summary.add(
-        "camera frame -> base frame",
-        f"{len(dets)} detections using {', '.join(used)}; centre error max {worst:.1f} mm",
-        ok,
-    )
+    topics = [TOPIC_CAMERA_POINTS, TOPIC_FLANGE_POSE]
+    _replay_and_check(session, keys, scenes_mcap, robot, topics, "camera frame -> base frame", summary)
 
 
 def gripper(session: zenoh.Session, keys: Keys, summary: Summary) -> None:

@@ -8,6 +8,7 @@ is interpolated from the recent flange poses.
 from __future__ import annotations
 
 import json
+import logging
 import threading
 from bisect import bisect_left
 from collections import deque
@@ -21,6 +22,8 @@ from sofia_schemas.transforms import as_transforms, invert, make_transform
 from .errors import BadTransformFile, TransformUnavailable
 from .plane import change_frame, coords
 
+log = logging.getLogger(__name__)
+JUMP_BACK_NS = 1_000_000_000  # a pose this much older than the newest starts a new time line
 DEFAULT_TOLERANCE_NS = 50_000_000  # a flange pose further than this from the cloud's stamp is not used
 
 
@@ -76,7 +79,16 @@ class FlangeHistory:
         self.tolerance_ns = tolerance_ns
 
     def add(self, stamp_ns: int, T_base_flange: np.ndarray) -> None:
+        """Add a pose. A jump back in time of more than ``JUMP_BACK_NS`` (a replay restarted, another
+        recording, a clock reset) clears the history first, as ROS tf does: poses of two time lines
+        must not be mixed."""
         with self._arrived:
+            if self._poses and stamp_ns < self._poses[-1][0] - JUMP_BACK_NS:
+                log.warning(
+                    "flange pose stamp jumped back %.3f s: clearing %d poses",
+                    (self._poses[-1][0] - stamp_ns) / 1e9, len(self._poses),
+                )  # fmt: skip
+                self._poses.clear()
             if self._poses and stamp_ns < self._poses[-1][0]:
                 items = sorted([*self._poses, (stamp_ns, T_base_flange)], key=lambda p: p[0])
                 self._poses.clear()

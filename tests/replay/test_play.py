@@ -11,8 +11,10 @@ from typing import Any
 import numpy as np
 import pytest
 from rosbags.typesys import Stores, get_typestore
+from sofia_replay.errors import RecordingError
 from sofia_replay.mcap_io import McapWriter
 from sofia_replay.player import default_key, encoding_of
+from sofia_replay.stamps import restamp, stamp_ns
 from sofia_schemas import BlobObservation, FlangePose, Keys, ServiceStatus, pointcloud
 from sofia_schemas.keys import (
     ENCODING_CDR_POINT,
@@ -249,3 +251,33 @@ def test_stalled_subscriber_does_not_grow_memory(
         sub.send_signal(signal.SIGCONT)
         sub.kill()
         sub.wait(10)
+
+
+def test_restamp_rewrites_only_the_header_stamp() -> None:
+    cdr = bytes(
+        pointcloud.encode_points(np.zeros((4, 3), np.float32), stamp_ns=1_000_000_123, frame_id="panda_link0")
+    )
+    out = restamp(cdr, 1_795_000_000_987_654_321)
+    assert stamp_ns(out) == 1_795_000_000_987_654_321 and stamp_ns(cdr) == 1_000_000_123
+    assert out[:4] == cdr[:4] and out[12:] == cdr[12:] and len(out) == len(cdr)
+    with pytest.raises(RecordingError, match="little-endian CDR"):
+        restamp(b"\x00\x00\x00\x00" + cdr[4:], 0)
+
+
+def test_status_query_and_restamped_loop(
+    recording: tuple[Path, dict[str, list[bytes]]], sofia_proc: Callable[..., Any],
+    collect: Callable[[str], Any], robot_id: str,
+) -> None:  # fmt: skip
+    """`sofia health replay` answers while playing; --restamp gives every loop fresh stamps."""
+    path, _ = recording
+    keys = Keys(robot_id)
+    got = collect(keys.flange_pose)
+    sofia_proc("replay", "play", str(path), "--rate", "4", "--loop", "--restamp", "--topic", TOPIC_FLANGE_POSE,
+               "--wait-subscribers", "20")  # fmt: skip
+    received = got.wait_for(keys.flange_pose, 2 * N, timeout=30)
+    health = sofia_proc("health", "replay")
+    assert health.popen.wait(30) == 0, health.log()
+    assert "replay: ok" in health.log()
+    stamps = [stamp_ns(r.payload) for r in received]
+    assert stamps == sorted(stamps) and len(set(stamps)) == len(stamps)  # no stamp repeats across loops
+    assert abs(stamps[-1] - time.time_ns()) < 30e9  # the publish time, not the recorded one

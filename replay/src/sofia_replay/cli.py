@@ -24,6 +24,10 @@ def register_replay(sub: argparse._SubParsersAction) -> None:  # type: ignore[ty
     speed.add_argument("--fast", action="store_true", help="as fast as possible (no timing)")
     play.add_argument("--loop", action="store_true", help="start again at the end, until stopped")
     play.add_argument(
+        "--restamp", action="store_true",
+        help="rewrite header stamps to the publish time (live-like data; loops get fresh stamps)",
+    )  # fmt: skip
+    play.add_argument(
         "--map", action="append", default=[], metavar="TOPIC=KEY", help="publish TOPIC on Zenoh KEY"
     )
     play.add_argument("--topic", action="append", default=None, metavar="TOPIC", help="play only TOPIC")
@@ -78,6 +82,7 @@ def _play(args: argparse.Namespace) -> int:
         congestion=args.congestion,
         wait_subscribers_s=args.wait_subscribers,
         progress_period_s=args.progress,
+        restamp=args.restamp,
     )
     robot = args.robot or default_robot()
     stop = StopFlag()

@@ -29,10 +29,11 @@ from sofia_schemas.keys import (
 )
 from sofia_schemas.messages import ServiceStatus, now_ns
 from sofia_schemas.rosmsg import POINT_STAMPED, POINTCLOUD2, TRANSFORM_STAMPED
-from sofia_schemas.service import StopFlag
+from sofia_schemas.service import StopFlag, reply_json
 
 from .errors import BadMappingError, RecordingError
 from .mcap_io import RecordedMessage, iter_messages, summary
+from .stamps import HEADER_FIRST, restamp
 
 log = logging.getLogger(__name__)
 
@@ -89,6 +90,7 @@ class PlayOptions:
     progress_period_s: float = 5.0
     status_period_s: float = 1.0
     max_loops: int | None = None
+    restamp: bool = False  # header stamps rewritten to the publish time (wall clock)
 
     def __post_init__(self) -> None:
         if not self.fast and not (self.rate > 0 and self.rate < float("inf")):
@@ -125,6 +127,9 @@ class Player:
         self._status_pub = session.declare_publisher(self.keys.status("replay"), encoding="application/json")
         self._state = "starting"
         self._position_s = 0.0
+        self._status_queryable = session.declare_queryable(
+            self.keys.status("replay"), lambda q: reply_json(q, self.status(self._position_s))
+        )
         start_ns, end_ns = self.window_ns()
         log.info(
             "replaying %s: %d messages on %d topics, %.2f s (window %.2f..%.2f s), %s, congestion %s",
@@ -240,7 +245,10 @@ class Player:
                             anchor = (now, m.log_time_ns)
                     elif stop.is_set():
                         break
-                    self._publisher(m.topic, m.schema_name).put(m.data)
+                    data = m.data
+                    if o.restamp and m.schema_name in HEADER_FIRST:
+                        data = restamp(data, time.time_ns())
+                    self._publisher(m.topic, m.schema_name).put(data)
                     r.published += 1
                     r.bytes += len(m.data)
                     r.per_topic[m.topic] += 1

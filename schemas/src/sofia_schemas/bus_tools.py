@@ -12,6 +12,7 @@ from pathlib import Path
 
 import zenoh
 
+from .client import query as query_replies
 from .decode import describe
 from .keys import Keys, default_robot
 from .messages import ServiceStatus
@@ -86,7 +87,7 @@ def query(args: argparse.Namespace) -> int:
     payload = args.payload.read_bytes() if args.payload else (args.data.encode() if args.data else None)
     n_ok = n_err = 0
     with zenoh.open(zenoh_config(ZenohOptions.from_args(args))) as session:
-        for reply in session.get(args.key, payload=payload, timeout=args.timeout):
+        for reply in query_replies(session, args.key, payload, args.timeout):
             if reply.ok is not None:
                 n_ok += 1
                 s = reply.ok
@@ -108,7 +109,7 @@ def health(args: argparse.Namespace) -> int:
     deadline = time.monotonic() + args.timeout
     with zenoh.open(zenoh_config(ZenohOptions.from_args(args))) as session:
         while time.monotonic() < deadline:
-            for reply in session.get(key, timeout=max(0.5, deadline - time.monotonic())):
+            for reply in query_replies(session, key, timeout=max(0.5, deadline - time.monotonic())):
                 if reply.ok is None:
                     continue
                 try:

@@ -20,6 +20,7 @@ from typing import IO
 
 import zenoh
 
+from .client import query
 from .keys import Keys, default_robot
 from .messages import ServiceStatus
 from .service import StopFlag
@@ -116,7 +117,7 @@ class Launcher:
                 m.state = "running"
                 continue
             state = "no status"
-            for reply in session.get(keys.status(m.spec.status), timeout=timeout):
+            for reply in query(session, keys.status(m.spec.status), timeout=timeout):
                 if reply.ok is not None:
                     try:
                         state = ServiceStatus.model_validate_json(reply.ok.payload.to_bytes()).state

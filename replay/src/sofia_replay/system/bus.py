@@ -9,6 +9,7 @@ from typing import Generic, TypeVar
 
 import zenoh
 from pydantic import BaseModel
+from sofia_schemas.client import query
 from sofia_schemas.messages import ErrorReply
 
 M = TypeVar("M", bound=BaseModel)
@@ -21,7 +22,7 @@ class QueryError(RuntimeError):
 def ask(session: zenoh.Session, key: str, model: type[M], payload: bytes | str | None = None,
         timeout: float = 10.0) -> M:  # fmt: skip
     """Send one query and parse the first reply as ``model``; QueryError on error or silence."""
-    for reply in session.get(key, payload=payload, timeout=timeout):
+    for reply in query(session, key, payload, timeout):
         if reply.ok is not None:
             return model.model_validate_json(reply.ok.payload.to_bytes())
         raw = reply.err.payload.to_bytes() if reply.err is not None else b""

@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 import zenoh
 from sofia_schemas import Keys
+from sofia_schemas.client import query
 from sofia_schemas.keys import TOPIC_BLOB, TOPIC_CAMERA_POINTS, TOPIC_FLANGE_POSE, TOPIC_POINTS
 from sofia_schemas.launcher import sofia_executable
 from sofia_schemas.messages import CalibrationResult, Detection, GripperCommand, GripperResult, PickTarget
@@ -109,7 +110,7 @@ def detections(session: zenoh.Session, keys: Keys, scenes_mcap: Path, robot: str
 def calibration(session: zenoh.Session, keys: Keys, calib_mcap: Path, robot: str, summary: Summary) -> bool:
     truth = read_truth(calib_mcap) or {}
     results = Collector(session, keys.calibration_result, CalibrationResult)
-    reset_ok = any(r.ok is not None for r in session.get(keys.calibrator_op("reset"), timeout=5))
+    reset_ok = any(r.ok is not None for r in query(session, keys.calibrator_op("reset"), timeout=5))
     if not reset_ok:
         summary.add("calibrator reset", f"no reply on {keys.calibrator_op('reset')}", False)
     say(f"replaying {calib_mcap} (blob observations + flange poses) into the calibrator ...")

@@ -6,10 +6,10 @@ import argparse
 import json
 import sys
 import threading
-import time
 from pathlib import Path
 from typing import Any
 
+from sofia_schemas.client import query
 from sofia_schemas.keys import ENCODING_JSON, Keys, default_robot
 from sofia_schemas.messages import GripperCommand
 from sofia_schemas.service import StopFlag
@@ -146,13 +146,10 @@ def _command(args: argparse.Namespace) -> int:
     cmd = build_command(args)
     key = Keys(args.robot or default_robot()).gripper_command
     with zenoh.open(zenoh_config(ZenohOptions.from_args(args))) as session:
-        deadline = time.monotonic() + 3.0
-        while True:  # discovery may take a moment right after start-up
-            replies = list(session.get(key, payload=cmd.to_json_bytes(), encoding=ENCODING_JSON,
-                                       timeout=cmd.timeout_s + 5.0))  # fmt: skip
-            if replies or time.monotonic() > deadline:
-                break
-            time.sleep(0.2)
+        # sent once, as soon as the service is discovered
+        replies = query(
+            session, key, cmd.to_json_bytes(), timeout=cmd.timeout_s + 5.0, encoding=ENCODING_JSON
+        )
     if not replies:
         print(f"sofia gripper {args.action}: no gripper service answered on {key}", file=sys.stderr)
         return 3

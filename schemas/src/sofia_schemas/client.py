@@ -1,7 +1,9 @@
-"""Queries from scripts and tools: wait until a queryable is reachable, then ask once.
+"""Queries from scripts and tools, robust to a session that has just been opened.
 
-A process that has just opened its session may not have discovered its peers yet; a query sent
-at once would find no queryable and end empty. A Zenoh ``Querier`` knows when a queryable matches.
+Right after a session opens, its peers may not be discovered yet and a query finds no queryable:
+it ends at once with no reply. Every SofIA queryable answers each query it receives (a result or an
+error reply), so an empty answer means the query reached nobody and sending it again cannot run
+anything twice; :func:`query` does that until a reply comes or the time is up.
 """
 
 from __future__ import annotations
@@ -10,7 +12,7 @@ import time
 
 import zenoh
 
-POLL_S = 0.02
+RETRY_S = 0.1
 
 
 def query(
@@ -20,17 +22,12 @@ def query(
     timeout: float = 10.0,
     encoding: str | None = None,
 ) -> list[zenoh.Reply]:
-    """Every reply to one query on ``key``, sent as soon as a queryable matches (at most ``timeout``
-    seconds for discovery and replies together); an empty list when no queryable answers."""
+    """Every reply to a query on ``key`` (at most ``timeout`` seconds for discovery and replies
+    together); an empty list when no queryable answered."""
     deadline = time.monotonic() + timeout
-    querier = session.declare_querier(key, timeout=timeout)
-    try:
-        while not querier.matching_status and time.monotonic() < deadline:
-            time.sleep(POLL_S)
-        remaining = max(0.1, deadline - time.monotonic())
-        if not querier.matching_status:
-            return []
-        replies = session.get(key, payload=payload, encoding=encoding, timeout=remaining)
-        return list(replies)
-    finally:
-        querier.undeclare()
+    while True:
+        remaining = deadline - time.monotonic()
+        replies = list(session.get(key, payload=payload, encoding=encoding, timeout=max(0.1, remaining)))
+        if replies or time.monotonic() + RETRY_S >= deadline:
+            return replies
+        time.sleep(RETRY_S)

@@ -21,7 +21,7 @@ def main() -> int:
     for name in ORDER:
         if wanted and not any(w in name for w in wanted):
             continue
-        print(f"\n## {name}.py\n", flush=True)
+        print(f"\n### {name}.py\n", flush=True)
         t0 = time.monotonic()
         r = subprocess.run([sys.executable, str(HERE / f"{name}.py")], cwd=HERE.parent)
         print(f"\n({name}.py took {time.monotonic() - t0:.0f} s, exit {r.returncode})", flush=True)

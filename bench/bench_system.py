@@ -174,6 +174,13 @@ def main() -> int:
         cpu = (cpu1[name] - cpu0[name]) / elapsed * 100
         print(f"| CPU {name} | {cpu:.0f} % of one core | 100 % | {cpu / 100:.2f}x |")
     warm = rss_samples[min(2, len(rss_samples) - 1)]  # after 10 s of clouds
+    quarters = [
+        rss_samples[min(len(rss_samples) - 1, round(q * (len(rss_samples) - 1)))] for q in (0.25, 0.5, 0.75)
+    ]
+    print(
+        f"| detector memory at 1/4, 1/2, 3/4 of the run | {quarters[0]:.0f}, {quarters[1]:.0f}, {quarters[2]:.0f} MB "
+        f"| flat after warm-up | {quarters[2] / quarters[0]:.2f}x |"
+    )
     print(
         f"| detector memory: idle, after 10 s, end (max) | {rss_samples[0]:.0f}, {warm:.0f}, "
         f"{rss_samples[-1]:.0f} ({max(rss_samples):.0f}) MB | flat after warm-up | {rss_samples[-1] / warm:.2f}x |"

@@ -142,6 +142,12 @@ def test_service_online_queries_errors_and_restart(
     ok, body = query(session, keys.calibrator_op("result"))
     assert ok and np.abs(np.array(body["matrix"]) - np.array(last.matrix)).max() < 1e-9
 
+    # with too few samples left, no result of the removed samples is kept
+    ok, body = query(session, keys.calibrator_op("remove"), json.dumps({"sample_ids": [0, 1, 2, 3, 4, 5]}))
+    assert ok and len(body["samples"]) == 2
+    ok, body = query(session, keys.calibrator_op("result"))
+    assert not ok and "2 samples, at least 3 needed" in body["message"]
+
     ok, body = query(session, keys.calibrator_op("reset"))
     assert ok and body["samples"] == []
     ok, body = query(session, keys.calibrator_op("result"))

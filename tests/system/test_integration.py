@@ -21,8 +21,9 @@ import pytest
 import zenoh
 from sofia_replay import iter_messages, read_truth
 from sofia_replay.synth import write_calibration_session, write_scene_set
-from sofia_replay.system.bus import Collector, QueryError, ask, wait_until
+from sofia_replay.system.bus import Collector, wait_until
 from sofia_schemas import Keys, zenoh_config
+from sofia_schemas.client import QueryError, ask
 from sofia_schemas.keys import TOPIC_BLOB, TOPIC_FLANGE_POSE, TOPIC_POINTS
 from sofia_schemas.launcher import Launcher, ServiceSpec
 from sofia_schemas.messages import (

@@ -29,7 +29,7 @@ from sofia_schemas.keys import (
 )
 from sofia_schemas.messages import ServiceStatus, now_ns
 from sofia_schemas.rosmsg import POINT_STAMPED, POINTCLOUD2, TRANSFORM_STAMPED
-from sofia_schemas.service import StopFlag, reply_json
+from sofia_schemas.service import StatusEndpoint, StopFlag
 
 from .errors import BadMappingError, RecordingError
 from .mcap_io import RecordedMessage, iter_messages, summary
@@ -124,12 +124,9 @@ class Player:
         self.summary = summary(self.path)
         self.result = PlayResult()
         self._publishers: dict[str, Any] = {}
-        self._status_pub = session.declare_publisher(self.keys.status("replay"), encoding="application/json")
         self._state = "starting"
         self._position_s = 0.0
-        self._status_queryable = session.declare_queryable(
-            self.keys.status("replay"), lambda q: reply_json(q, self.status(self._position_s))
-        )
+        self._status = StatusEndpoint(session, self.keys.status("replay"), self.status)
         start_ns, end_ns = self.window_ns()
         log.info(
             "replaying %s: %d messages on %d topics, %.2f s (window %.2f..%.2f s), %s, congestion %s",
@@ -186,15 +183,17 @@ class Player:
         return not missing
 
     # --- status -----------------------------------------------------------
-    def status(self, position_s: float) -> ServiceStatus:
-        r = self.result
+    def status(self) -> ServiceStatus:
+        """Runs on Zenoh's thread for status queries too: reads only (the topic counts are copied
+        in one step, while the play loop may add a topic)."""
+        r, position_s = self.result, self._position_s
         counters = {
             "published": r.published,
             "bytes": r.bytes,
             "loops": r.loops,
             "late_resyncs": r.late_resyncs,
         }
-        counters.update({f"topic:{t}": n for t, n in sorted(r.per_topic.items())})
+        counters.update({f"topic:{t}": n for t, n in sorted(dict(r.per_topic).items())})
         return ServiceStatus(
             service="replay",
             stamp_ns=now_ns(),
@@ -210,9 +209,6 @@ class Player:
             },
         )
 
-    def publish_status(self, position_s: float) -> None:
-        self._status_pub.put(self.status(position_s).model_dump_json(), encoding="application/json")
-
     # --- playing ----------------------------------------------------------
     def _messages(self) -> Iterator[RecordedMessage]:
         start_ns, end_ns = self.window_ns()
@@ -221,7 +217,7 @@ class Player:
     def run(self, stop: StopFlag) -> PlayResult:
         """Play until the end (or forever with ``loop``), or until ``stop`` is set."""
         o, r = self.options, self.result
-        self.publish_status(0.0)
+        self._status.publish()
         if o.wait_subscribers_s > 0:
             self.wait_for_subscribers(stop)
         self._state = "ok"
@@ -254,7 +250,7 @@ class Player:
                     r.per_topic[m.topic] += 1
                     position_s = self._position_s = (m.log_time_ns - self.summary.start_ns) / 1e9
                     if now >= next_status:
-                        self.publish_status(position_s)
+                        self._status.publish()
                         next_status = now + o.status_period_s
                     if now >= next_progress:
                         elapsed = now - t_wall0
@@ -275,7 +271,7 @@ class Player:
         finally:
             r.stopped = stop.is_set()
             self._state = "stopping"
-            self.publish_status(self._position_s)
+            self._status.publish()
             time.sleep(DRAIN_S)
         elapsed = time.monotonic() - t_wall0
         log.info(
@@ -287,4 +283,4 @@ class Player:
     def close(self) -> None:
         for pub in self._publishers.values():
             pub.undeclare()
-        self._status_pub.undeclare()
+        self._status.undeclare()

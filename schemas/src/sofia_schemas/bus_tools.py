@@ -7,11 +7,11 @@ import json
 import logging
 import sys
 import threading
-import time
 from pathlib import Path
 
 import zenoh
 
+from .client import QueryError, ask
 from .client import query as query_replies
 from .decode import describe
 from .keys import Keys, default_robot
@@ -106,22 +106,14 @@ def query(args: argparse.Namespace) -> int:
 
 def health(args: argparse.Namespace) -> int:
     key = Keys(args.robot or default_robot()).status(args.service)
-    deadline = time.monotonic() + args.timeout
     with zenoh.open(zenoh_config(ZenohOptions.from_args(args))) as session:
-        while time.monotonic() < deadline:
-            for reply in query_replies(session, key, timeout=max(0.5, deadline - time.monotonic())):
-                if reply.ok is None:
-                    continue
-                try:
-                    status = ServiceStatus.model_validate_json(reply.ok.payload.to_bytes())
-                except ValueError as e:
-                    print(f"{key}: unreadable status: {e}", file=sys.stderr)
-                    return 1
-                print(f"{args.service}: {status.state} {status.detail}".rstrip())
-                return 0 if status.state in HEALTHY else 1
-            time.sleep(0.2)
-    print(f"{args.service}: no status on {key} within {args.timeout} s", file=sys.stderr)
-    return 1
+        try:
+            status = ask(session, key, ServiceStatus, timeout=args.timeout)
+        except (QueryError, ValueError) as e:  # no or an error reply; an unreadable status
+            print(f"{args.service}: {e}", file=sys.stderr)
+            return 1
+    print(f"{args.service}: {status.state} {status.detail}".rstrip())
+    return 0 if status.state in HEALTHY else 1
 
 
 def router(args: argparse.Namespace) -> int:

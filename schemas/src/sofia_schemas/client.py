@@ -9,10 +9,19 @@ anything twice; :func:`query` does that until a reply comes or the time is up.
 from __future__ import annotations
 
 import time
+from typing import TypeVar
 
 import zenoh
+from pydantic import BaseModel
+
+from .messages import ErrorReply
 
 RETRY_S = 0.1
+M = TypeVar("M", bound=BaseModel)
+
+
+class QueryError(RuntimeError):
+    """A query got an error reply, or no reply at all."""
 
 
 def query(
@@ -31,3 +40,19 @@ def query(
         if replies or time.monotonic() + RETRY_S >= deadline:
             return replies
         time.sleep(RETRY_S)
+
+
+def ask(session: zenoh.Session, key: str, model: type[M], payload: bytes | str | None = None,
+        timeout: float = 10.0) -> M:  # fmt: skip
+    """The first reply to a query on ``key`` parsed as ``model``; QueryError naming the error reply
+    (its :class:`ErrorReply`) or the silence."""
+    for reply in query(session, key, payload, timeout):
+        if reply.ok is not None:
+            return model.model_validate_json(reply.ok.payload.to_bytes())
+        raw = reply.err.payload.to_bytes() if reply.err is not None else b""
+        try:
+            err = ErrorReply.model_validate_json(raw)
+        except ValueError:
+            raise QueryError(f"{key}: error reply {raw[:200]!r}") from None
+        raise QueryError(f"{key}: {err.error}: {err.message}")
+    raise QueryError(f"{key}: no reply within {timeout} s")

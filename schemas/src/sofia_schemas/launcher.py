@@ -20,7 +20,7 @@ from typing import IO
 
 import zenoh
 
-from .client import query
+from .client import QueryError, ask
 from .keys import Keys, default_robot
 from .messages import ServiceStatus
 from .service import StopFlag
@@ -116,14 +116,12 @@ class Launcher:
             if m.spec.status is None:
                 m.state = "running"
                 continue
-            state = "no status"
-            for reply in query(session, keys.status(m.spec.status), timeout=timeout):
-                if reply.ok is not None:
-                    try:
-                        state = ServiceStatus.model_validate_json(reply.ok.payload.to_bytes()).state
-                    except ValueError:
-                        state = "bad status"
-                    break
+            try:
+                state: str = ask(session, keys.status(m.spec.status), ServiceStatus, timeout=timeout).state
+            except QueryError:
+                state = "no status"
+            except ValueError:
+                state = "bad status"
             if state == "ok":
                 m.backoff = 1.0
             m.state = state

@@ -11,6 +11,7 @@ from __future__ import annotations
 import logging
 import signal
 import threading
+from collections import deque
 from collections.abc import Callable
 from pathlib import Path
 from types import FrameType
@@ -19,7 +20,8 @@ from typing import Generic, TypeVar
 import zenoh
 from pydantic import BaseModel
 
-from .messages import ErrorReply
+from .keys import ENCODING_JSON
+from .messages import ErrorReply, ServiceStatus
 
 T = TypeVar("T")
 log = logging.getLogger(__name__)
@@ -63,30 +65,34 @@ class StopFlag:
 
 
 class LatestSlot(Generic[T]):
-    """Holds only the newest item. ``put`` replaces an item not yet taken and counts it dropped."""
+    """Holds only the newest ``depth`` items (default 1): ``put`` on a full slot drops the oldest item
+    not yet taken and counts it in ``dropped``, so a slow consumer never works on stale data and
+    memory stays bounded."""
 
-    def __init__(self) -> None:
+    def __init__(self, depth: int = 1) -> None:
+        if depth < 1:
+            raise ValueError(f"LatestSlot depth must be at least 1, got {depth}")
         self._cond = threading.Condition()
-        self._item: T | None = None
-        self._has = False
+        self._items: deque[T] = deque()
+        self.depth = depth
         self.dropped = 0
         self.received = 0
 
     def put(self, item: T) -> None:
         with self._cond:
-            if self._has:
+            if len(self._items) == self.depth:
+                self._items.popleft()
                 self.dropped += 1
-            self._item, self._has = item, True
+            self._items.append(item)
             self.received += 1
             self._cond.notify()
 
     def take(self, timeout: float | None = None) -> T | None:
-        """The newest item, waiting up to ``timeout`` s; None when nothing arrived."""
+        """The oldest item kept, waiting up to ``timeout`` s; None when nothing arrived."""
         with self._cond:
-            if not self._has and not self._cond.wait_for(lambda: self._has, timeout):
+            if not self._items and not self._cond.wait_for(lambda: bool(self._items), timeout):
                 return None
-            item, self._item, self._has = self._item, None, False
-            return item
+            return self._items.popleft()
 
 
 def reply_json(query: zenoh.Query, message: BaseModel, key: str | None = None) -> None:
@@ -122,3 +128,38 @@ def run_worker(name: str, target: Callable[[], None]) -> threading.Thread:
     t = threading.Thread(target=wrapped, name=name, daemon=True)
     t.start()
     return t
+
+
+def query_payload(query: zenoh.Query) -> bytes:
+    """The payload of ``query`` (empty bytes when it has none)."""
+    return query.payload.to_bytes() if query.payload is not None else b""
+
+
+class StatusEndpoint:
+    """A service's status on ``key`` (``Keys.status(name)``): answered when queried (``sofia health``)
+    and published by :meth:`publish`, which services call every second.
+
+    ``build`` runs on Zenoh's thread for queries: it must only read the service's state.
+    """
+
+    def __init__(self, session: zenoh.Session, key: str, build: Callable[[], ServiceStatus]) -> None:
+        self.key = key
+        self._build = build
+        self._publisher = session.declare_publisher(key, encoding=ENCODING_JSON)
+        self._queryable = session.declare_queryable(key, self._answer)
+
+    def _answer(self, query: zenoh.Query) -> None:
+        try:
+            status = self._build()
+        except Exception as e:  # a status that cannot be built is itself news
+            log.exception("status of %s", self.key)
+            reply_error(query, e, self.key)
+            return
+        reply_json(query, status, self.key)
+
+    def publish(self) -> None:
+        self._publisher.put(self._build().to_json_bytes(), encoding=ENCODING_JSON)
+
+    def undeclare(self) -> None:
+        self._queryable.undeclare()
+        self._publisher.undeclare()

@@ -9,29 +9,8 @@ from typing import Generic, TypeVar
 
 import zenoh
 from pydantic import BaseModel
-from sofia_schemas.client import query
-from sofia_schemas.messages import ErrorReply
 
 M = TypeVar("M", bound=BaseModel)
-
-
-class QueryError(RuntimeError):
-    """A query got an error reply or no reply."""
-
-
-def ask(session: zenoh.Session, key: str, model: type[M], payload: bytes | str | None = None,
-        timeout: float = 10.0) -> M:  # fmt: skip
-    """Send one query and parse the first reply as ``model``; QueryError on error or silence."""
-    for reply in query(session, key, payload, timeout):
-        if reply.ok is not None:
-            return model.model_validate_json(reply.ok.payload.to_bytes())
-        raw = reply.err.payload.to_bytes() if reply.err is not None else b""
-        try:
-            err = ErrorReply.model_validate_json(raw)
-        except ValueError:
-            raise QueryError(f"{key}: error reply {raw[:200]!r}") from None
-        raise QueryError(f"{key}: {err.error}: {err.message}")
-    raise QueryError(f"{key}: no reply within {timeout} s")
 
 
 def wait_until(predicate: Callable[[], bool], timeout: float, interval: float = 0.2) -> bool:

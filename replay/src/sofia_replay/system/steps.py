@@ -9,14 +9,14 @@ from pathlib import Path
 import numpy as np
 import zenoh
 from sofia_schemas import Keys
-from sofia_schemas.client import query
+from sofia_schemas.client import QueryError, ask, query
 from sofia_schemas.keys import TOPIC_BLOB, TOPIC_CAMERA_POINTS, TOPIC_FLANGE_POSE, TOPIC_POINTS
 from sofia_schemas.launcher import sofia_executable
 from sofia_schemas.messages import CalibrationResult, Detection, GripperCommand, GripperResult, PickTarget
 from sofia_schemas.transforms import rotation_angle
 
 from ..mcap_io import read_truth
-from .bus import Collector, QueryError, ask, wait_until
+from .bus import Collector, wait_until
 from .summary import Summary, say
 
 OBJECT_WIDTH_MM = 40.0  # the object between the emulated fingers

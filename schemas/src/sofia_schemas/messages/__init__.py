@@ -2,6 +2,7 @@
 
 from .base import SCHEMA_VERSION, ErrorReply, Message, ServiceStatus, now_ns
 from .calibration import (
+    CalibrationFiles,
     CalibrationRemove,
     CalibrationResult,
     CalibrationSample,
@@ -17,12 +18,12 @@ from .pick import PickTarget
 ALL_MESSAGES: tuple[type[Message], ...] = (
     PointCloudInfo, FlangePose, BlobObservation, Detection, DetectedObject, CalibrationSample,
     CalibrationResult, CalibrationSummary, CalibrationSamples, CalibrationSolveOptions,
-    CalibrationRemove, GripperCommand, GripperResult, GripperState, PickTarget, ErrorReply,
+    CalibrationRemove, CalibrationFiles, GripperCommand, GripperResult, GripperState, PickTarget, ErrorReply,
     ServiceStatus,
 )  # fmt: skip
 
 __all__ = [
-    "ALL_MESSAGES", "SCHEMA_VERSION", "BlobObservation", "CalibrationRemove", "CalibrationResult",
+    "ALL_MESSAGES", "SCHEMA_VERSION", "BlobObservation", "CalibrationFiles", "CalibrationRemove", "CalibrationResult",
     "CalibrationSample", "CalibrationSamples", "CalibrationSolveOptions", "CalibrationSummary",
     "DetectedObject", "Detection", "ErrorReply", "FlangePose", "GripperAction", "GripperCommand",
     "GripperResult", "GripperState", "Message", "PickTarget", "PointCloudInfo", "ServiceStatus",

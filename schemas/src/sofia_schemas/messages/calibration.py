@@ -82,3 +82,9 @@ class CalibrationRemove(Message):
     """Payload of ``calibrator/remove``."""
 
     sample_ids: list[int]
+
+
+class CalibrationFiles(Message):
+    """Files written by the calibrator's ``save``: YAML, ROS 1 launch file, ROS 2 command."""
+
+    files: list[str]

@@ -29,7 +29,15 @@ from sofia_schemas import Board, pointcloud
 from sofia_schemas.keys import ENCODING_JSON, Keys
 from sofia_schemas.messages import CalibrationResult, Detection, ServiceStatus, now_ns
 from sofia_schemas.rosmsg import decode_flange_pose
-from sofia_schemas.service import LatestSlot, StopFlag, reply_error, reply_json, run_worker
+from sofia_schemas.service import (
+    LatestSlot,
+    StatusEndpoint,
+    StopFlag,
+    query_payload,
+    reply_error,
+    reply_json,
+    run_worker,
+)
 from sofia_schemas.zenoh_config import ZenohOptions, zenoh_config
 
 from .detect import detect
@@ -178,30 +186,31 @@ class Detector:
 
     def answer(self, query: zenoh.Query) -> None:
         self.counters["queries"] += 1
-        with query:
-            payload = query.payload.to_bytes() if query.payload is not None else b""
-            try:
-                if payload:
-                    det = self.detect_payload(payload, False, f"query {query.key_expr}")
-                else:
-                    job = self.slot.take(timeout=0)
-                    if job is not None:
-                        self.process(job)
-                    if self.latest is None:
-                        raise DetectorError(
-                            f"no cloud received yet on {Keys(self.config.robot).points} or "
-                            f"{Keys(self.config.robot).camera_points}: send a PointCloud2 with the query"
-                        )
-                    det = self.latest
-                reply_json(query, det)
-            except ValueError as e:
-                self.counters["query_errors"] += 1
-                log.warning("detect query refused: %s", e)
-                reply_error(query, e)
-            except Exception as e:  # still answer: the caller must not wait for a timeout
-                self.counters["query_errors"] += 1
-                log.exception("detect query failed")
-                reply_error(query, e)
+        payload = query_payload(query)
+        try:
+            if payload:
+                det = self.detect_payload(payload, False, f"query {query.key_expr}")
+            else:
+                job = self.slot.take(timeout=0)
+                if job is not None:
+                    self.process(job)
+                if self.latest is None:
+                    raise DetectorError(
+                        f"no cloud received yet on {Keys(self.config.robot).points} or "
+                        f"{Keys(self.config.robot).camera_points}: send a PointCloud2 with the query"
+                    )
+                det = self.latest
+        except ValueError as e:
+            self.counters["query_errors"] += 1
+            log.warning("detect query refused: %s", e)
+            reply_error(query, e)
+            return
+        except Exception as e:  # still answer: the caller must not wait for a timeout
+            self.counters["query_errors"] += 1
+            log.exception("detect query failed")
+            reply_error(query, e)
+            return
+        reply_json(query, det)
 
     def status(self) -> ServiceStatus:
         with self._lock:
@@ -224,7 +233,6 @@ def main(config: ServiceConfig) -> int:
         publish = {
             "detections": session.declare_publisher(keys.detections),
             "pick": session.declare_publisher(keys.pick_target),
-            "status": session.declare_publisher(keys.status("detector")),
         }
         service = Detector(config, publish)
         declared: list[Any] = [
@@ -233,15 +241,16 @@ def main(config: ServiceConfig) -> int:
             session.declare_subscriber(keys.flange_pose, service.on_flange_pose),
             session.declare_subscriber(keys.calibration_result, service.on_calibration),
             session.declare_queryable(keys.detect, service.queries.put),
-            session.declare_queryable(keys.status("detector"), lambda q: reply_json(q, service.status())),
+            StatusEndpoint(session, keys.status("detector"), service.status),
         ]
         worker = run_worker("detector", lambda: service.run(stop))
         log.info(
             "detector ready: clouds on %s and %s, detections on %s, queries on %s (transform: %s)",
             keys.points, keys.camera_points, keys.detections, keys.detect, service.transform_name,
         )  # fmt: skip
+        status = declared[-1]
         while not stop.wait(STATUS_PERIOD_S):
-            publish["status"].put(service.status().to_json_bytes(), encoding=ENCODING_JSON)
+            status.publish()
         log.info("detector stopping")
         worker.join(timeout=5.0)
         for d in declared:

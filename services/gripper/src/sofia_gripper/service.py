@@ -12,6 +12,7 @@ on the command thread.
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import queue
 import subprocess
@@ -26,7 +27,7 @@ from pydantic import ValidationError
 from sofia_schemas.errors import PayloadError
 from sofia_schemas.keys import ENCODING_JSON, Keys
 from sofia_schemas.messages import GripperCommand, GripperState, ServiceStatus, now_ns
-from sofia_schemas.service import StopFlag, reply_error, reply_json, run_worker
+from sofia_schemas.service import StatusEndpoint, StopFlag, query_payload, reply_error, reply_json, run_worker
 from sofia_schemas.zenoh_config import ZenohOptions, zenoh_config
 
 from .config import GripperConfig, save_config
@@ -47,7 +48,7 @@ class ServiceConfig:
 
 
 def parse_command(query: zenoh.Query) -> GripperCommand:
-    payload = query.payload.to_bytes() if query.payload is not None else b""
+    payload = query_payload(query)
     if not payload:
         raise PayloadError("gripper command query has no payload: send a JSON GripperCommand")
     try:
@@ -64,13 +65,20 @@ class GripperService:
         self.errors = 0
 
     def run_command(self, query: zenoh.Query, cmd: GripperCommand) -> None:
-        with query:  # leaving the block finalises the query: the caller's get() ends at once
-            try:
-                reply_json(query, self.gripper.execute(cmd))
-            except GripperError as e:
-                self.errors += 1
-                log.warning("gripper %s refused: %s", cmd.action, e)
-                reply_error(query, e)
+        """Execute ``cmd`` and answer ``query`` (the reply finalises it); never raises."""
+        try:
+            result = self.gripper.execute(cmd)
+        except GripperError as e:
+            self.errors += 1
+            log.warning("gripper %s refused: %s", cmd.action, e)
+            reply_error(query, e)
+            return
+        except Exception as e:  # the command thread must survive, and the caller must get an answer
+            self.errors += 1
+            log.exception("gripper %s failed", cmd.action)
+            reply_error(query, e)
+            return
+        reply_json(query, result)
 
     def dispatch(self) -> None:
         while (query := self.inbox.get()) is not None:
@@ -79,8 +87,7 @@ class GripperService:
             except PayloadError as e:
                 self.errors += 1
                 log.warning("%s", e)
-                with query:
-                    reply_error(query, e)
+                reply_error(query, e)
                 continue
             if cmd.action in IMMEDIATE:
                 self.run_command(query, cmd)
@@ -144,39 +151,39 @@ def main(config: ServiceConfig) -> int:
     """Run the service until SIGINT/SIGTERM."""
     stop = StopFlag()
     keys = Keys(config.robot)
-    gconf, emulator, tmp = config.gripper, None, None
-    if config.emulate:
-        tmp = tempfile.TemporaryDirectory(prefix="sofia-gripper-")
-        emulator = start_emulator(gconf, config.object_width_mm, Path(tmp.name))
-        gconf = gconf.model_copy(update={"port": emulator.path})
-    with zenoh.open(zenoh_config(config.zenoh)) as session:
+    with contextlib.ExitStack() as cleanup:  # the emulator and its directory go whatever happens
+        gconf = config.gripper
+        if config.emulate:
+            tmp = cleanup.enter_context(tempfile.TemporaryDirectory(prefix="sofia-gripper-"))
+            emulator = start_emulator(gconf, config.object_width_mm, Path(tmp))
+            cleanup.callback(emulator.stop)
+            gconf = gconf.model_copy(update={"port": emulator.path})
+        session = cleanup.enter_context(zenoh.open(zenoh_config(config.zenoh)))
         state_pub = session.declare_publisher(keys.gripper_state)
-        status_pub = session.declare_publisher(keys.status("gripper"))
 
         def publish_state(state: GripperState) -> None:
             state_pub.put(state.to_json_bytes(), encoding=ENCODING_JSON)
 
         gripper = Gripper(gconf, on_state=publish_state)
         service = GripperService(gripper)
-        queryables = [
-            session.declare_queryable(keys.gripper_command, service.inbox.put),
-            session.declare_queryable(keys.status("gripper"), lambda q: reply_json(q, service.status())),
-        ]
+        commands = session.declare_queryable(keys.gripper_command, service.inbox.put)
+        status = StatusEndpoint(session, keys.status("gripper"), service.status)
         gripper.start()
-        run_worker("gripper-dispatch", service.dispatch)
-        run_worker("gripper-commands", service.work_loop)
+        workers = [
+            run_worker("gripper-dispatch", service.dispatch),
+            run_worker("gripper-commands", service.work_loop),
+        ]
         log.info(
             "gripper service ready: commands on %s, state on %s", keys.gripper_command, keys.gripper_state
         )
         while not stop.wait(1.0):
-            status_pub.put(service.status().to_json_bytes(), encoding=ENCODING_JSON)
+            status.publish()
         log.info("gripper service stopping")
-        service.inbox.put(None)
+        commands.undeclare()
+        service.inbox.put(None)  # the dispatcher passes the end on to the command thread
+        gripper.abort.set()  # a motion under way ends now
+        for worker in workers:
+            worker.join(timeout=10.0)
         gripper.close(torque_off=False)  # keep holding; the bus watchdog stops motion
-        for q in queryables:
-            q.undeclare()
-    if emulator:
-        emulator.stop()
-    if tmp:
-        tmp.cleanup()
+        status.undeclare()
     return 0

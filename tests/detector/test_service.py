@@ -157,9 +157,12 @@ def test_camera_frame_cloud_with_flange_pose_and_transform_file(
     assert proc.popen.poll() is None
 
 
-def test_burst_keeps_only_the_latest_cloud(sofia_proc, robot_id: str, session, scenes) -> None:  # type: ignore[no-untyped-def]
+@pytest.mark.parametrize("backlog", [1, 30])
+def test_burst_keeps_only_the_latest_cloud(sofia_proc, robot_id: str, session, scenes, backlog: int) -> None:  # type: ignore[no-untyped-def]
+    """Backlog 1 (the default): the newest cloud is processed, older ones are dropped and counted.
+    A backlog longer than the burst loses nothing."""
     keys = Keys(robot_id)
-    proc = sofia_proc("detector", "serve")
+    proc = sofia_proc("detector", "serve", "--backlog", str(backlog))
     proc.wait_for_log("detector ready")
     dets, _sub = _collect(session, keys.detections)
     _wait_subscribed(session, keys)
@@ -189,6 +192,8 @@ def test_burst_keeps_only_the_latest_cloud(sofia_proc, robot_id: str, session, s
     c = status.counters
     assert c["received"] == n and c["processed"] == len(stamps)
     assert c["processed"] + c["dropped"] == c["received"], c
+    if backlog > n:
+        assert c["dropped"] == 0 and stamps == [STAMP_NS + i for i in range(n)]
 
 
 def test_transform_from_the_calibrator(sofia_proc, robot_id: str, session, scenes) -> None:  # type: ignore[no-untyped-def]

@@ -79,17 +79,17 @@ def system(tmp_path_factory: pytest.TempPathFactory) -> Iterator[System]:
     ]
     launcher = Launcher(specs, tmp / "logs", robot)
     launcher.start()
-    with zenoh.open(zenoh_config()) as session:
-        s = System(robot, Keys(robot), launcher, session, scenes, calib, tmp)
-        try:
+    try:
+        with zenoh.open(zenoh_config()) as session:
+            s = System(robot, Keys(robot), launcher, session, scenes, calib, tmp)
             if not s.healthy(90):
                 logs = "\n".join(
                     f"--- {p.name}\n{p.read_text()[-1500:]}" for p in (tmp / "logs").glob("*.log")
                 )
                 pytest.fail(f"services not healthy: {launcher.table()}\n{logs}")
             yield s
-        finally:
-            launcher.stop()
+    finally:  # the services stop whatever failed, so no test leaves processes behind
+        launcher.stop()
 
 
 def _check_detections(dets: list[Detection], truth: dict) -> None:
@@ -253,29 +253,31 @@ def test_router_restart(tmp_path: Path) -> None:
     det = Launcher(
         [ServiceSpec("detector", ["detector", "serve"], "detector")], tmp_path / "d", robot, env=env
     )
-    router.start()
-    det.start()
     scenes = tmp_path / "one.mcap"
     write_scene_set(scenes, "one", 2, seed=5, rate_hz=5.0, frames="base")
-    with zenoh.open(zenoh_config(env=env)) as session:
-        keys = Keys(robot)
-        dets = Collector(session, keys.detections, Detection)
-        player = subprocess.Popen(
-            [SOFIA, "replay", "play", str(scenes), "--loop", "--robot", robot],
-            env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-        )  # fmt: skip
-        try:
-            assert wait_until(lambda: len(dets) >= 2, 60), det.table()
-            router.stop()
-            time.sleep(2.0)
-            router.start()
-            n = len(dets)
-            assert wait_until(lambda: len(dets) > n + 2, 60), (
-                "detections did not resume after the router restart"
-            )
-        finally:
-            player.terminate()
-            player.wait(10)
-            dets.close()
-            det.stop()
-            router.stop()
+    router.start()
+    det.start()
+    try:
+        with zenoh.open(zenoh_config(env=env)) as session:
+            keys = Keys(robot)
+            dets = Collector(session, keys.detections, Detection)
+            player = subprocess.Popen(
+                [SOFIA, "replay", "play", str(scenes), "--loop", "--robot", robot],
+                env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+            )  # fmt: skip
+            try:
+                assert wait_until(lambda: len(dets) >= 2, 60), det.table()
+                router.stop()
+                time.sleep(2.0)
+                router.start()
+                n = len(dets)
+                assert wait_until(lambda: len(dets) > n + 2, 60), (
+                    "detections did not resume after the router restart"
+                )
+            finally:
+                player.terminate()
+                player.wait(10)
+                dets.close()
+    finally:
+        det.stop()
+        router.stop()

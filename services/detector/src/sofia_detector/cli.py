@@ -42,6 +42,11 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
         "--transform", type=Path, metavar="FILE", help="T_flange_cam YAML/JSON (else the calibrator's)"
     )
     serve.add_argument("--robot", default=None, help="robot id (default $SOFIA_ROBOT or panda)")
+    serve.add_argument(
+        "--backlog", type=int, default=1, metavar="N",
+        help="clouds kept while busy (default 1: only the latest, older ones are dropped and counted; "
+        "N > 1: a stall of up to N-1 frames loses nothing, at most N-1 frames late)",
+    )  # fmt: skip
     add_zenoh_args(serve)
     serve.set_defaults(func=_serve)
 
@@ -55,7 +60,7 @@ def _serve(args: argparse.Namespace) -> int:
 
     config = ServiceConfig(
         board=_board(args.board), robot=args.robot or default_robot(), zenoh=ZenohOptions.from_args(args),
-        transform_file=args.transform,
+        transform_file=args.transform, backlog=args.backlog,
     )  # fmt: skip
     return main(config)
 

@@ -59,6 +59,7 @@ class ServiceConfig:
     transform_file: Path | None = None
     params: DetectorParams = field(default_factory=DetectorParams)
     pick: PickParams = field(default_factory=PickParams)
+    backlog: int = 1  # clouds kept while busy: 1 keeps only the latest; more absorb a short stall
 
 
 @dataclass(frozen=True)
@@ -77,7 +78,7 @@ class Detector:
         self.config = config
         self.board = config.board
         self.publish = publish
-        self.slot: LatestSlot[CloudJob] = LatestSlot()
+        self.slot: LatestSlot[CloudJob] = LatestSlot(config.backlog)
         self.queries: queue.Queue[zenoh.Query] = queue.Queue()
         self.flange = FlangeHistory()
         self.T_flange_cam: np.ndarray | None = None

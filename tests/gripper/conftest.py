@@ -29,18 +29,14 @@ def make_config(path: str, protocol: int = 2, **kw: object) -> GripperConfig:
 
 @pytest.fixture
 def emulator(tmp_path: Path) -> Iterator[Emulator]:
-    emu = Emulator(protocol=2, baud=BAUD, link_path=tmp_path / "ttyDXL")
-    emu.start()
-    yield emu
-    emu.stop()
+    with Emulator(protocol=2, baud=BAUD, link_path=tmp_path / "ttyDXL") as emu:
+        yield emu
 
 
 @pytest.fixture
 def emulator_p1(tmp_path: Path) -> Iterator[Emulator]:
-    emu = Emulator(protocol=1, baud=BAUD, link_path=tmp_path / "ttyDXL1")
-    emu.start()
-    yield emu
-    emu.stop()
+    with Emulator(protocol=1, baud=BAUD, link_path=tmp_path / "ttyDXL1") as emu:
+        yield emu
 
 
 class StateLog:

@@ -10,6 +10,8 @@ import numpy as np
 import yaml
 from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
 
+from .files import load_json_or_yaml
+
 DEFAULT_BOARD_FILE = "default_board.yaml"
 
 
@@ -57,9 +59,7 @@ class Board(BaseModel):
     @classmethod
     def from_file(cls, path: str | Path) -> Board:
         """Read a board from a YAML (``.yaml``/``.yml``) or JSON file."""
-        path = Path(path)
-        text = path.read_text()
-        data = json.loads(text) if path.suffix.lower() == ".json" else yaml.safe_load(text)
+        data = load_json_or_yaml(path)
         if not isinstance(data, dict):
             raise ValueError(f"{path}: expected a mapping of board fields, got {type(data).__name__}")
         return cls.model_validate(data)

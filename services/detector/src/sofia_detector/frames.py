@@ -7,7 +7,6 @@ is interpolated from the recent flange poses.
 
 from __future__ import annotations
 
-import json
 import logging
 import threading
 from bisect import bisect_left
@@ -15,8 +14,8 @@ from collections import deque
 from pathlib import Path
 
 import numpy as np
-import yaml
 from scipy.spatial.transform import Rotation, Slerp
+from sofia_schemas.files import FileContentError, load_json_or_yaml
 from sofia_schemas.transforms import as_transforms, invert, make_transform
 
 from .errors import BadTransformFile, TransformUnavailable
@@ -46,17 +45,12 @@ def parse_transform(data: object, where: str) -> np.ndarray:
 
 def load_transform_file(path: str | Path) -> np.ndarray:
     """(4, 4) ``T_flange_cam`` from a YAML or JSON file (see :func:`parse_transform`)."""
-    path = Path(path)
     try:
-        text = path.read_text()
+        data = load_json_or_yaml(path)
     except OSError as e:
         raise BadTransformFile(path, f"cannot be read: {e.strerror or e}") from None
-    try:
-        data = json.loads(text) if path.suffix.lower() == ".json" else yaml.safe_load(text)
-    except (ValueError, yaml.YAMLError) as e:
-        raise BadTransformFile(
-            path, f"is not valid {'JSON' if path.suffix == '.json' else 'YAML'}: {e}"
-        ) from None
+    except FileContentError as e:
+        raise BadTransformFile(path, e.what) from None
     return parse_transform(data, str(path))
 
 

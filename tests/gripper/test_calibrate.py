@@ -9,6 +9,7 @@ from pathlib import Path
 import pytest
 from sofia_gripper import ConfigError, Emulator, load_config
 from sofia_gripper.calibrate import calibrate
+from sofia_gripper.force import calibrate_force, parse_reading
 
 from ..conftest import SOFIA
 from .conftest import BAUD, make_config
@@ -64,3 +65,24 @@ def test_calibrate_command_line(emulator: Emulator, tmp_path: Path) -> None:
     assert proc.wait(30) == 0, proc.stderr.read() if proc.stderr else ""
     conf = load_config(out)
     assert (conf.open_ticks, conf.closed_ticks) == (1450, 2500)
+
+
+def test_force_calibration_fits_the_scale(emulator: Emulator, tmp_path: Path) -> None:
+    """`sofia gripper calibrate --force`: grasps at several currents, reads a scale, fits N/A."""
+    emulator.set_object(45.0)
+    k_true = 31.0  # N per A at the fingertips of this (emulated) gripper
+    prompts: list[str] = []
+
+    def scale(prompt: str) -> str:  # the scale reads the true force of the squeezing motor
+        prompts.append(prompt)
+        grams = k_true * emulator.snapshot()["current_ma"] / 1000 / 9.80665 * 1000
+        return f"{grams:.0f} g"
+
+    out = tmp_path / "gripper.yaml"
+    new = calibrate_force(make_config(emulator.path), out, [300.0, 600.0], ask=scale, say=lambda _s: None)
+    assert new.force_per_amp_n == pytest.approx(k_true, rel=0.03)
+    assert load_config(out).force_per_amp_n == pytest.approx(new.force_per_amp_n)
+    assert len(prompts) == 3 and "300 mA" in prompts[1]
+    assert parse_reading("1.5 kg") == pytest.approx(14.71, abs=0.01) and parse_reading("12 N") == 12.0
+    with pytest.raises(ConfigError, match="'heavy' is not a number"):
+        parse_reading("heavy")

@@ -71,3 +71,22 @@ def test_emulator_console_injects_faults(tmp_path: Path) -> None:
     finally:
         proc.terminate()
         assert proc.wait(10) == 0
+
+
+def test_serve_takes_the_common_options_and_every_option_has_help() -> None:
+    parser = build_parser()
+    args = parser.parse_args(["gripper", "serve", "--robot", "r2", "--emulate"])
+    assert args.robot == "r2"
+    gripper_parsers = next(
+        a
+        for a in parser._subparsers._group_actions[0].choices["gripper"]._actions  # type: ignore[union-attr]
+        if a.dest == "gripper_cmd"
+    ).choices
+    assert "run" not in gripper_parsers, "`gripper run` duplicated `serve`"
+    missing = [
+        f"gripper {name} {a.option_strings}"
+        for name, sub in gripper_parsers.items()
+        for a in sub._actions
+        if a.option_strings and a.dest != "help" and not a.help
+    ]
+    assert not missing, missing

@@ -121,6 +121,6 @@ def test_protocol1_gripper(emulator_p1: Emulator) -> None:
 def test_open_blocked_by_something_fails_with_the_reason(gripper: Gripper, emulator: Emulator) -> None:
     assert gripper.execute(Cmd(action="move", opening_mm=20.0)).ok
     with emulator.lock:  # the fingers jam: the motor cannot turn any more
-        emulator.servo.speed_ticks_s = lambda: 0.0  # type: ignore[method-assign]
+        emulator.servo.max_speed_ticks_s = lambda: 0.0  # type: ignore[method-assign]
     r = gripper.execute(Cmd(action="open"))
     assert not r.ok and r.reason.startswith("blocked at 20.") and r.grasped is False

@@ -41,7 +41,7 @@ def test_ping_read_write_and_eeprom_lock_p2(emulator: Emulator, port: PortHandle
     assert ph.write1ByteTxRx(port, 1, 64, 1) == (COMM_SUCCESS, 0)
     assert ph.write1ByteTxRx(port, 1, 11, 3) == (COMM_SUCCESS, P2_ERR_ACCESS)  # EEPROM locked by torque
     assert ph.read1ByteTxRx(port, 1, 11) == (5, COMM_SUCCESS, 0)
-    assert ph.write4ByteTxRx(port, 1, 116, 5000) == (COMM_SUCCESS, P2_ERR_LIMIT)  # above Max Position Limit
+    assert ph.write4ByteTxRx(port, 1, 116, 2_000_000) == (COMM_SUCCESS, P2_ERR_LIMIT)  # beyond 256 turns
     assert ph.write1ByteTxRx(port, 1, 132, 1) == (COMM_SUCCESS, P2_ERR_ACCESS)  # read-only
     assert ph.write4ByteTxRx(port, 1, 116, 2200) == (COMM_SUCCESS, 0)
     time.sleep(0.5)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import os
+import signal
 import subprocess
 import threading
 import time
@@ -123,3 +124,20 @@ def test_service_without_hardware_keeps_serving_clear_errors(
     )  # type: ignore[union-attr]
     assert status.state == "error" and "/nonexistent/ttyUSB9" in status.detail
     assert proc.stop() == 0
+
+
+def test_service_moves_again_after_a_stall_trips_the_bus_watchdog(
+    service: Proc, session: zenoh.Session, robot_id: str
+) -> None:
+    """A service stalled for longer than the servo's 200 ms Bus Watchdog (SIGSTOP for 1 s) trips it:
+    the servo stops and refuses goals until the watchdog is cleared. The service clears and re-arms
+    it and the next command moves the gripper (e-Manual, "Bus Watchdog(98)")."""
+    keys = Keys(robot_id)
+    assert ok(query(session, keys.gripper_command, b'{"action": "open"}')).ok
+    os.kill(service.popen.pid, signal.SIGSTOP)  # the service only: its emulated servo runs on
+    time.sleep(1.0)
+    os.kill(service.popen.pid, signal.SIGCONT)
+    r = ok(query(session, keys.gripper_command, b'{"action": "move", "opening_mm": 60}'))
+    assert r.ok and r.opening_mm == pytest.approx(60.0, abs=1.5), r.reason
+    assert r.state is not None and r.state.watchdog_trips >= 1
+    assert service.stop() == 0

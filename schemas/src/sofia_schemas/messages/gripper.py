@@ -43,6 +43,7 @@ class GripperState(Message):
     hardware_error: list[str] = []
     grasped: bool = False
     error: str | None = None
+    watchdog_trips: int = 0  # Bus Watchdog trips cleared by the driver since it started
 
 
 class GripperResult(Message):

@@ -66,11 +66,22 @@ class DxlBus:
 
     def _check(self, what: str, result: int, error: int) -> None:
         if result != COMM_SUCCESS:
+            self._drop_stale_input()
             raise CommFailed(what, self.ph.getTxRxResult(result))
         hw = ALERT_BIT_P2 if self.protocol == 2 else HW_ERROR_MASK_P1
         self.last_status_error = error & hw
         if error & ~hw:
-            raise ServoRefused(what, self.ph.getRxPacketError(error & ~hw))
+            raise ServoRefused(what, self.ph.getRxPacketError(error & ~hw), error & ~hw)
+
+    def _drop_stale_input(self) -> None:
+        """After a failed exchange, a late status packet may still arrive: drop what is buffered so
+        the next exchange does not read it as its own reply (e.g. after the host stalled)."""
+        with self.lock:
+            if self.port is not None and self.port.is_open:
+                try:
+                    self.port.clearPort()
+                except (serial.SerialException, OSError, termios.error):
+                    pass
 
     # --- exchanges --------------------------------------------------------
     def ping(self) -> int:

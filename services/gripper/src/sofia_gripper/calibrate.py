@@ -43,9 +43,14 @@ def calibrate(
             f"open {open_ticks} and closed {closed_ticks} ticks are too close: did the fingers move?"
         )
     if closed_ticks < open_ticks:
+        fix = (
+            "set the servo's Drive Mode to reverse (bit 0) or mount the horn the other way"
+            if config.protocol == 2
+            else "mount the horn the other way (Protocol 1.0 firmware has no Drive Mode)"
+        )
         raise ConfigError(
-            f"closing decreases the motor position ({open_ticks} -> {closed_ticks} ticks); set the servo's "
-            "Drive Mode to reverse (bit 0) or mount the horn the other way, then calibrate again"
+            f"closing decreases the motor position ({open_ticks} -> {closed_ticks} ticks); {fix}, "
+            "then calibrate again"
         )
     data = config.model_dump()
     data.update(open_ticks=open_ticks, closed_ticks=closed_ticks)

@@ -23,10 +23,12 @@ ACTIONS = ("open", "close", "grasp", "move", "release", "stop", "torque", "reboo
 def _add_servo_args(p: argparse.ArgumentParser) -> None:
     g = p.add_argument_group("servo")
     g.add_argument("--config", type=Path, help="gripper YAML config (see `sofia gripper calibrate`)")
-    g.add_argument("--port", help="serial port, e.g. /dev/ttyUSB0")
-    g.add_argument("--baud", type=int, help="baud rate (default 57600)")
-    g.add_argument("--id", type=int, dest="dxl_id", help="Dynamixel id (default 1)")
-    g.add_argument("--protocol", type=float, choices=(1.0, 2.0), help="Dynamixel protocol (default 2.0)")
+    g.add_argument("--port", help="serial port (default /dev/ttyUSB0)")
+    g.add_argument("--baud", type=int, metavar="BPS", help="baud rate, bit/s (default 57600)")
+    g.add_argument("--id", type=int, dest="dxl_id", help="Dynamixel id, 0-252 (default 1)")
+    g.add_argument(
+        "--protocol", type=float, choices=(1.0, 2.0), help="Dynamixel protocol version (default 2.0)"
+    )
 
 
 def gripper_config(args: argparse.Namespace) -> GripperConfig:
@@ -42,48 +44,68 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     p = sub.add_parser("gripper", help="MX-64 gripper: service, emulator, calibration, commands")
     gs = p.add_subparsers(dest="gripper_cmd", required=True, metavar="ACTION")
 
-    for name in ("serve", "run"):
-        s = gs.add_parser(name, help="run the gripper service")
-        _add_servo_args(s)
-        add_zenoh_args(s)
-        s.add_argument(
-            "--emulate", action="store_true", help="run against an emulated MX-64 (its own process)"
-        )
-        s.add_argument("--object-width", type=float, metavar="MM", help="emulated object width (--emulate)")
-        s.set_defaults(func=_serve)
+    s = gs.add_parser("serve", help="run the gripper service")
+    _add_servo_args(s)
+    add_zenoh_args(s)
+    s.add_argument("--robot", default=None, help="robot id (default $SOFIA_ROBOT or panda)")
+    s.add_argument("--emulate", action="store_true", help="run against an emulated MX-64 (its own process)")
+    s.add_argument(
+        "--object-width", type=float, metavar="MM", help="width of the emulated object, mm (--emulate)"
+    )
+    s.set_defaults(func=_serve)
 
     e = gs.add_parser(
         "emulate",
         help="run an MX-64 emulator on a pseudo-terminal (prints the tty path; faults from stdin: "
         "object MM|none, overheat, overload, noreply on|off, corrupt on|off, unplug, replug, clear)",
     )
-    e.add_argument("--object-width", type=float, metavar="MM", help="object between the fingers")
-    e.add_argument("--protocol", type=float, choices=(1.0, 2.0), default=2.0)
-    e.add_argument("--baud", type=int, default=57600)
-    e.add_argument("--id", type=int, dest="dxl_id", default=1)
+    e.add_argument("--object-width", type=float, metavar="MM", help="object between the fingers, mm")
+    e.add_argument(
+        "--protocol", type=float, choices=(1.0, 2.0), default=2.0, help="Dynamixel protocol (default 2.0)"
+    )
+    e.add_argument("--baud", type=int, default=57600, metavar="BPS", help="baud rate, bit/s (default 57600)")
+    e.add_argument("--id", type=int, dest="dxl_id", default=1, help="Dynamixel id, 0-252 (default 1)")
     e.add_argument("--link", type=Path, help="also make this symlink to the tty (stable path)")
     e.add_argument("--config", type=Path, help="gripper YAML config the emulated mechanism follows")
     e.add_argument("--exit-with-stdin", action="store_true", help="stop when stdin closes (the parent died)")
     e.set_defaults(func=_emulate)
 
-    c = gs.add_parser("calibrate", help="record the open and closed positions into a config file")
+    c = gs.add_parser(
+        "calibrate",
+        help="record the open and closed positions (or, with --force, current against force) into a config",
+    )
     _add_servo_args(c)
     c.add_argument("--out", type=Path, required=True, help="config file to write")
+    c.add_argument(
+        "--force",
+        action="store_true",
+        help="calibrate the force estimate: grasp a scale at several currents and type what it reads",
+    )
+    c.add_argument(
+        "--currents",
+        type=float,
+        nargs="+",
+        metavar="MA",
+        default=[200.0, 400.0, 600.0, 800.0],
+        help="grasp currents for --force, mA (default 200 400 600 800)",
+    )
     c.set_defaults(func=_calibrate)
 
     for action in ACTIONS:
         a = gs.add_parser(action, help=f"send a {action} command to the gripper service")
         add_zenoh_args(a)
         a.add_argument("--robot", default=None, help="robot id (default $SOFIA_ROBOT or panda)")
-        a.add_argument("--timeout", type=float, default=10.0, help="command timeout, s")
+        a.add_argument("--timeout", type=float, default=10.0, help="command timeout, s (default 10)")
         if action == "grasp":
-            a.add_argument("--force", type=float, metavar="N", help="grasp force limit")
-            a.add_argument("--current", type=float, metavar="MA", help="grasp current limit")
+            a.add_argument("--force", type=float, metavar="N", help="grasp force limit, newtons")
+            a.add_argument("--current", type=float, metavar="MA", help="grasp current limit, mA")
         if action in ("grasp", "move", "open", "close", "release"):
-            a.add_argument("--speed", type=float, help="fraction of the max velocity, (0, 1]")
+            a.add_argument("--speed", type=float, help="fraction of the max velocity, (0, 1] (default 1)")
         if action == "move":
-            a.add_argument("--opening", type=float, metavar="MM", help="finger opening")
-            a.add_argument("--ticks", type=int, help="motor position instead of an opening")
+            a.add_argument("--opening", type=float, metavar="MM", help="finger opening, mm")
+            a.add_argument(
+                "--ticks", type=int, help="motor position instead of an opening, ticks (4096/turn)"
+            )
         if action == "torque":
             a.add_argument("enable", choices=("on", "off"))
         a.set_defaults(func=_command, action=action)
@@ -93,7 +115,7 @@ def _serve(args: argparse.Namespace) -> int:
     from .service import ServiceConfig, main
 
     conf = ServiceConfig(
-        gripper=gripper_config(args), robot=default_robot(), zenoh=ZenohOptions.from_args(args),
+        gripper=gripper_config(args), robot=args.robot or default_robot(), zenoh=ZenohOptions.from_args(args),
         emulate=args.emulate, object_width_mm=args.object_width,
     )  # fmt: skip
     return main(conf)
@@ -124,8 +146,12 @@ def _emulate(args: argparse.Namespace) -> int:
 
 def _calibrate(args: argparse.Namespace) -> int:
     from .calibrate import calibrate
+    from .force import calibrate_force
 
-    calibrate(gripper_config(args), args.out)
+    if args.force:
+        calibrate_force(gripper_config(args), args.out, args.currents)
+    else:
+        calibrate(gripper_config(args), args.out)
     return 0
 
 

@@ -14,12 +14,14 @@ from typing import TYPE_CHECKING
 from sofia_schemas.messages import GripperCommand, GripperResult, GripperState
 
 from .errors import CommandError, GripperError, NotReady, OutOfRange
+from .startup import recover_watchdog
 
 if TYPE_CHECKING:
     from .driver import Gripper
 
 log = logging.getLogger(__name__)
 GRASP_CURRENT_FRACTION = 0.7  # stalled with at least this share of the goal current = object held
+STALL_VELOCITY_RAD_S = 0.05  # about two units of Present Velocity: "not moving" for stall detection
 MOTION = {"open", "close", "move", "grasp", "release"}
 
 
@@ -55,7 +57,9 @@ def _torque(g: Gripper, cmd: GripperCommand, t0: float) -> GripperResult:
         raise CommandError("torque needs 'enable': true or false")
     _require_connected(g)
     if cmd.enable:
-        g.bus.write("goal_position", g.bus.read("present_position"))
+        g.write_goal("goal_position", g.bus.read("present_position"))
+        if g.config.protocol == 1:  # "Alarm Shutdown" set Torque Limit(34) to 0: writing it re-arms
+            g.set_current(g.config.move_current_ma)
     g.bus.write("torque_enable", int(cmd.enable))
     g.torque = cmd.enable
     g.grasped = g.grasped and cmd.enable
@@ -115,12 +119,14 @@ def _current(g: Gripper, cmd: GripperCommand) -> float:
     if cmd.force_n is not None and cmd.current_ma is not None:
         raise CommandError("grasp takes force_n or current_ma, not both")
     current = c.grasp_current_ma
+    max_force = g.current_limit_ma / 1000 * c.force_per_amp_n
     if cmd.force_n is not None:
         current = cmd.force_n / c.force_per_amp_n * 1000
+        if current > g.current_limit_ma:
+            raise OutOfRange("grasp force", cmd.force_n, 0, max_force, "N")
     elif cmd.current_ma is not None:
         current = cmd.current_ma
     if current > g.current_limit_ma:
-        max_force = g.current_limit_ma / 1000 * c.force_per_amp_n
         raise OutOfRange("grasp current", current, 0, g.current_limit_ma, f"mA (force limit {max_force:g} N)")
     return current
 
@@ -134,40 +140,63 @@ def _motion(g: Gripper, cmd: GripperCommand, t0: float) -> GripperResult:
         raise NotReady(f"temperature above {g.config.max_temperature_c:g} C")
     if not g.torque:
         raise NotReady("torque is off; send torque with enable=true")
-    g.set_current(current)
-    g.set_speed(cmd.speed or 1.0)
-    goal = g.set_goal(target)
+    goal = _send_goals(g, cmd, target, current)
     g.grasped = False
     return _wait(g, cmd, goal, current, t0)
 
 
+def _send_goals(g: Gripper, cmd: GripperCommand, target: float, current: float) -> int:
+    g.set_current(current)
+    g.set_speed(cmd.speed or 1.0)
+    return g.set_goal(target)
+
+
 def _wait(g: Gripper, cmd: GripperCommand, goal: int, current: float, t0: float) -> GripperResult:
+    """Wait for the goal or a stall. A stall is detected from the motion itself (speed about 0
+    and either the current at the goal current, or the profile over short of the goal) for
+    ``stall_time_s``, not from Moving: the servo keeps Moving at 1 until its profile ends, even
+    when an object stopped the fingers (e-Manual, "Moving(122)")."""
     c = g.config
     deadline = t0 + cmd.timeout_s
     still_since: float | None = None
+    trips = g.counters["watchdog_trips"]
     while True:
         state = g.next_state(0.5)
         now = time.monotonic()
+        if state is None and g.connected and now <= deadline:
+            continue  # the state loop was held up (a host stall), the line is not lost
         if state is None or not state.connected:
             return _result(cmd, False, f"serial line lost ({g.error})", g.state, t0)
         if state.status == "error":
             return _result(cmd, False, state.error or "error", state, t0)
         if g.abort.is_set():  # hold where we are, even if our goal was written after the stop's
-            g.bus.write("goal_position", state.position_ticks or goal)
+            g.write_goal("goal_position", state.position_ticks or goal)
             return _result(cmd, False, "stopped by a stop command", state, t0)
         if now > deadline:
-            g.bus.write("goal_position", state.position_ticks or goal)
+            g.write_goal("goal_position", state.position_ticks or goal)
             return _result(cmd, False, f"timeout after {cmd.timeout_s:g} s", state, t0)
+        if g.counters["watchdog_trips"] != trips:  # the servo stopped on a trip: send the goals again
+            trips = g.counters["watchdog_trips"]
+            log.warning("gripper %s: resending goals after a bus watchdog trip", cmd.action)
+            _send_goals(g, cmd, goal, current)
+            still_since = None
+            continue
         pos = state.position_ticks or 0
-        if abs(pos - goal) <= c.position_tolerance_ticks and not state.moving:
-            return _result(cmd, True, "done", state, t0, grasped=False if cmd.action == "grasp" else None)
-        if state.moving or abs(state.velocity_rad_s or 0.0) > 0.05:
+        if abs(pos - goal) <= c.position_tolerance_ticks:
+            if not state.moving:
+                return _result(cmd, True, "done", state, t0, grasped=False if cmd.action == "grasp" else None)
+            still_since = None
+            continue
+        squeezing = (state.current_ma or 0.0) >= GRASP_CURRENT_FRACTION * current
+        slow = abs(state.velocity_rad_s or 0.0) <= STALL_VELOCITY_RAD_S
+        if not (slow and (squeezing or not state.moving)) or now - t0 < 2 * c.stall_time_s:
             still_since = None
             continue
         still_since = still_since or now
-        if now - still_since < c.stall_time_s or now - t0 < 2 * c.stall_time_s:
+        if now - still_since < c.stall_time_s:
             continue
-        squeezing = (state.current_ma or 0.0) >= GRASP_CURRENT_FRACTION * current
+        if not squeezing and recover_watchdog(g):  # stopped by a trip the state loop has not seen yet
+            continue
         if cmd.action in ("grasp", "close") and squeezing:
             g.grasped = True
             return _result(cmd, True, "stalled", state.model_copy(update={"grasped": True}), t0, grasped=True)

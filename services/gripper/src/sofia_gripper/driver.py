@@ -19,17 +19,9 @@ from sofia_schemas.messages import GripperCommand, GripperResult, GripperState, 
 
 from .bus import DxlBus
 from .config import GripperConfig
-from .control_table import (
-    MODEL,
-    OPERATING_MODE_CURRENT_BASED_POSITION,
-    STALL_CURRENT_MA,
-    STATE_BLOCK,
-    UNITS,
-    WATCHDOG_UNIT_MS,
-    decode_int,
-    hardware_error_words,
-)
-from .errors import BusError, GripperError, WrongModel
+from .control_table import MODEL, STALL_CURRENT_MA, STATE_BLOCK, UNITS, decode_int, hardware_error_words
+from .errors import BusError, GripperError, ServoRefused, WrongModel
+from .startup import configure, is_data_range, recover_watchdog
 
 log = logging.getLogger(__name__)
 FAILS_BEFORE_LOST = 3
@@ -56,7 +48,7 @@ class Gripper:
         self.current_limit_ma = config.max_current_ma
         self.abort = threading.Event()
         self.command_lock = threading.Lock()
-        self.counters = {"cycles": 0, "read_errors": 0, "reconnects": 0, "commands": 0}
+        self.counters = {"cycles": 0, "read_errors": 0, "reconnects": 0, "commands": 0, "watchdog_trips": 0}
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
         self._fails = 0
@@ -105,47 +97,32 @@ class Gripper:
 
     def configure(self) -> None:
         """Read limits, set the operating mode and currents, arm the watchdog, torque on."""
-        c, b, p2 = self.config, self.bus, self.config.protocol == 2
-        if p2:
-            b.write("bus_watchdog", 0)  # clears a tripped watchdog
-            resume = (
-                b.read("torque_enable") == 1
-                and b.read("operating_mode") == OPERATING_MODE_CURRENT_BASED_POSITION
-            )
-        else:
-            resume = False
-        if not resume:
-            b.write("torque_enable", 0)
-            b.write("return_delay_time", 0)
-            if p2:
-                b.write("operating_mode", OPERATING_MODE_CURRENT_BASED_POSITION)
-        low, high = b.read("min_position_limit"), b.read("max_position_limit")
-        self.limits = (max(low, c.open_ticks), min(high, c.closed_ticks))
-        if self.limits[0] >= self.limits[1]:
-            raise GripperError(
-                f"servo position limits [{low}, {high}] exclude the calibrated range {c.open_ticks}..{c.closed_ticks}"
-            )
-        servo_max = b.read("current_limit") * self.units.current_ma if p2 else STALL_CURRENT_MA
-        self.current_limit_ma = min(c.max_current_ma, servo_max)
-        if not resume:
-            self.set_current(c.move_current_ma)
-            self.set_speed(1.0)
-            b.write("goal_position", b.read("present_position"))
-            b.write("torque_enable", 1)
-        if p2 and c.watchdog_ms:
-            b.write("bus_watchdog", max(1, c.watchdog_ms // WATCHDOG_UNIT_MS))
-        self.torque, self.hw_error, self.overheated = True, [], False
+        configure(self)
 
     @property
     def recover_hint(self) -> str:
-        """How to clear a hardware error: Reboot (Protocol 2.0), torque on again (Protocol 1.0)."""
-        return "send reboot" if self.config.protocol == 2 else "send torque on"
+        """How to clear the present hardware error."""
+        p2 = self.config.protocol == 2
+        if "input_voltage" in self.hw_error:
+            return "check the supply: the MX-64 needs 10-14.8 V" + (", then send reboot" if p2 else "")
+        if p2:
+            return "send reboot"
+        return "send torque on (rewrites Torque Limit, which the servo's shutdown set to 0)"
 
     # --- writes used by commands -----------------------------------------
+    def write_goal(self, name: str, value: int) -> None:
+        """Write a goal value; a refusal from a tripped Bus Watchdog is cleared and retried once."""
+        try:
+            self.bus.write(name, value)
+        except ServoRefused as e:
+            if not (is_data_range(e) and recover_watchdog(self)):
+                raise
+            self.bus.write(name, value)
+
     def set_current(self, current_ma: float) -> None:
         current_ma = min(current_ma, self.current_limit_ma)
         if self.config.protocol == 2:
-            self.bus.write("goal_current", round(current_ma / self.units.current_ma))
+            self.write_goal("goal_current", round(current_ma / self.units.current_ma))
         else:
             self.bus.write("torque_limit", round(current_ma / STALL_CURRENT_MA * 1023))
 
@@ -154,8 +131,10 @@ class Gripper:
         self.bus.write("profile_velocity", max(1, units))
 
     def set_goal(self, ticks: float) -> int:
+        """Goal Position clamped to the calibrated open..closed range (the servo applies no
+        position limit in current-based position mode)."""
         goal = round(min(max(ticks, self.limits[0]), self.limits[1]))
-        self.bus.write("goal_position", goal)
+        self.write_goal("goal_position", goal)
         return goal
 
     def execute(self, command: GripperCommand) -> GripperResult:
@@ -202,7 +181,11 @@ class Gripper:
             else:
                 self.hw_error = []
             if self.hw_error or self.counters["cycles"] % 25 == 0:
-                self.torque = self.bus.read("torque_enable") == 1
+                self.torque = self.bus.read("torque_enable") == 1 and (
+                    self.config.protocol == 2 or self.bus.read("torque_limit") > 0
+                )  # Protocol 1.0 shutdown sets Torque Limit to 0 and leaves Torque Enable on
+                if self.torque:
+                    recover_watchdog(self)
         except BusError as e:
             self.counters["read_errors"] += 1
             self._fails += 1
@@ -246,7 +229,7 @@ class Gripper:
             force_n=max(0.0, current_ma) / 1000 * self.config.force_per_amp_n,
             temperature_c=float(get("present_temperature")), voltage_v=get("present_input_voltage") * u.voltage_v,
             moving=bool(get("moving")), torque_enabled=self.torque, hardware_error=self.hw_error,
-            grasped=self.grasped, error=error,
+            grasped=self.grasped, error=error, watchdog_trips=self.counters["watchdog_trips"],
         )  # fmt: skip
 
     def _safety(self, state: GripperState) -> None:

@@ -222,10 +222,12 @@ class Emulator:
         params, error, kind = execute(self, ins)
         if params is None:
             return None
+        # "Status Return Level(68)": 0 answers PING only, 1 PING and READ (Sync/Bulk Read are
+        # reads), 2 every instruction; a broadcast gets no status except PING and the group reads
+        # (Protocol 2.0 "Ping": a broadcast ping is answered by every device).
         level = s.get("status_return_level")
-        if mine and (level >= 2 or kind == "ping" or (level == 1 and kind == "read")):
-            return self._status(error, params)
-        if kind in {"sync_read", "bulk_read"}:
+        group = kind in {"sync_read", "bulk_read"}
+        if kind == "ping" or (level >= 1 and (group or (mine and kind == "read"))) or (level >= 2 and mine):
             return self._status(error, params)
         return None
 

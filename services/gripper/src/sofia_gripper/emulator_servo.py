@@ -1,21 +1,25 @@
-"""The emulated MX-64: its control table (bytes, as on the servo) and a simple motor model.
+"""The emulated MX-64: its control table (bytes, as on the servo) and a motor model.
 
-The motor follows Goal Position at Profile Velocity (trapezoid-free: constant speed), draws a
-current that grows with speed and is capped by Goal Current (Protocol 2.0, current-based
-position mode) or Torque Limit (Protocol 1.0). An object placed between the fingers blocks the
-motor at ``object_ticks`` (closing increases the position): the position stalls a little past
-contact (the soft fingers give) and the current rises to its cap. Temperature follows I^2 heating
-and Newtonian cooling. Hardware errors in the Shutdown mask switch the torque off; the Bus
-Watchdog stops the motor when no instruction arrived in time.
+Behaviour follows the ROBOTIS e-Manual (MX-64(2.0), MX-64AR/AT Protocol 1.0); what a Write
+accepts is in :mod:`.emulator_rules`. The profile generator moves a trajectory point from the
+present position to Goal Position at Profile Velocity; Moving(122) / Moving(46) is 1 while that
+profile is in progress, whatever the motor does ("Moving(122)": "always set to 1 regardless of
+Present Velocity while Profile is in progress"), and afterwards 1 only while the speed is above
+Moving Threshold(24). The motor follows the trajectory point with a current that grows with
+speed, capped by Goal Current (Protocol 2.0, current-based position mode) or Torque Limit(34)
+(Protocol 1.0). An object between the fingers blocks the motor at ``object_ticks`` (closing
+increases the position): the position stalls a little past contact (the soft fingers give) and
+the current rises to its cap while the profile runs on to its end. Temperature follows I^2
+heating and Newtonian cooling. Shutdown: a hardware error in the Shutdown mask clears Torque
+Enable (Protocol 2.0, cleared by Reboot) or sets Torque Limit(34) to 0 (Protocol 1.0 "Alarm
+Shutdown", recovered by writing it non-zero). Bus Watchdog(98) runs only while the torque is on.
 """
 
 from __future__ import annotations
 
-import builtins
 import math
 import time
 
-from . import packets as pk
 from .control_table import (
     MODEL,
     OPERATING_MODE_CURRENT_BASED_POSITION,
@@ -30,12 +34,14 @@ from .control_table import (
     encode_int,
     fields,
 )
+from .emulator_rules import check_write, partial_item
 
 AMBIENT_C = 35.0
 HEAT_PER_MA2 = 1.25e-7  # degC / s per mA^2
 COOL_PER_S = 1.0 / 60.0
 COMPLIANCE_TICKS_PER_MA = 0.02  # how far the soft fingers give per mA of squeezing current
 MAX_STEP_S = 0.002
+LAG_CURRENT_MA_PER_TICK = 10.0  # position-loop current per tick of lag behind the trajectory
 HW_OVERHEAT, HW_OVERLOAD = 1 << 2, 1 << 5  # Protocol 2.0 Hardware Error Status bits
 P1_OVERHEAT, P1_OVERLOAD, P1_ANGLE = 1 << 2, 1 << 5, 1 << 1
 
@@ -49,7 +55,7 @@ DEFAULTS: dict[Protocol, dict[str, int]] = {
     },
     1: {
         "firmware_version": 41, "baud_rate": 34, "return_delay_time": 250, "temperature_limit": 80,
-        "max_voltage_limit": 160, "min_voltage_limit": 60, "max_torque": 1023,
+        "max_voltage_limit": 240, "min_voltage_limit": 60, "max_torque": 1023,
         "max_position_limit": 4095, "min_position_limit": 0, "status_return_level": 2, "shutdown": 36,
         "alarm_led": 36, "torque_limit": 1023, "present_current": 2048,
     },
@@ -63,6 +69,7 @@ class Mx64Servo:
         self.protocol, self.units, self.table = protocol, UNITS[protocol], fields(protocol)
         self.mem = bytearray(700 if protocol == 2 else 80)
         self.position, self.velocity, self.current_ma = float(position_ticks), 0.0, 0.0
+        self.trajectory = self.position  # the profile generator's position (ticks)
         self.temperature_c, self.voltage_v = AMBIENT_C, 12.0
         self.hw_error = 0  # P2 Hardware Error Status bits / P1 hardware bits of the error byte
         self.object_ticks: float | None = None
@@ -90,12 +97,20 @@ class Mx64Servo:
         self.reboot()
 
     def reboot(self) -> None:
-        """RAM back to power-on values; hardware errors cleared if their cause is gone."""
-        self.set("torque_enable", 0)
+        """Power-on RAM ("Reboot": RAM area back to its initial values, EEPROM kept); hardware
+        errors cleared if their cause is gone."""
+        defaults = DEFAULTS[self.protocol]
+        for name, f in self.table.items():
+            if not f.eeprom and f.writable:
+                self.set(name, defaults.get(name, 0))
         self.set("goal_position", round(self.position))
         if self.protocol == 2:
-            self.set("bus_watchdog", 0)
+            self.set("status_return_level", defaults["status_return_level"])
             self.set("goal_current", self.get("current_limit"))
+            self.set("goal_pwm", self.get("pwm_limit"))
+        else:
+            self.set("torque_limit", self.get("max_torque"))  # copied from Max Torque at power-on
+        self.trajectory = self.position
         self.hw_error &= HW_OVERHEAT if self.temperature_c >= self.get("temperature_limit") else 0
         self.registered = None
         self.t_boot = time.monotonic()
@@ -111,40 +126,28 @@ class Mx64Servo:
         """Apply a Write; returns the status error (P2 error number or P1 error bits), 0 if fine."""
         p2 = self.protocol == 2
         touched = self._fields_in(address, len(data))
-        if not touched or any(not f.writable for _, f in touched):
-            return pk.ERR_ACCESS if p2 else pk.ERRBIT1_RANGE
-        if any(f.eeprom for _, f in touched) and (self.get("torque_enable") if p2 else self.get("lock")):
-            return pk.ERR_ACCESS if p2 else pk.ERRBIT1_RANGE
-        names = {n for n, _ in touched}
         new = bytearray(self.mem)
         new[address : address + len(data)] = data
-        if p2 and self.get("bus_watchdog") == WATCHDOG_TRIPPED and names & {"goal_position", "goal_current"}:
-            return pk.ERR_DATA_RANGE
-        error = self._check_limits(new, names)
+        error = check_write(self.protocol, touched, new, self.get, partial_item(touched, address, len(data)))
         if error:
             return error
+        names = {n for n, _ in touched}
+        mode = self.get("operating_mode") if p2 else 0
+        profiling = abs(self.get("goal_position") - self.trajectory) > 0.5
         self.mem[address : address + len(data)] = data
-        if not p2 and "torque_enable" in names and self.get("torque_enable"):
-            self.hw_error &= (
-                P1_OVERHEAT if self.temperature_c >= self.get("temperature_limit") else 0
-            )  # re-armed
+        if "goal_position" in names and not profiling:
+            self.trajectory = self.position  # a new profile starts from the present position
+        if p2 and "operating_mode" in names and self.get("operating_mode") != mode:
+            # "Operating Mode(11)" note: profile reset to 0, Goal PWM/Current to their limits
+            self.set("profile_velocity", 0)
+            self.set("profile_acceleration", 0)
+            self.set("goal_pwm", self.get("pwm_limit"))
+            self.set("goal_current", self.get("current_limit"))
+        if not p2 and "torque_limit" in names and self.get("torque_limit") > 0:
+            # "Alarm Shutdown": writing Torque Limit(34) non-zero makes the motor usable again
+            self.hw_error &= P1_OVERHEAT if self.temperature_c >= self.get("temperature_limit") else 0
         if "bus_watchdog" in names:
             self.t_last_packet = time.monotonic()
-        return 0
-
-    def _check_limits(self, new: bytearray, names: builtins.set[str]) -> int:
-        p2 = self.protocol == 2
-        if "goal_position" in names:
-            f = self.table["goal_position"]
-            goal = decode_int(new, f.address, f)
-            if not self.get("min_position_limit") <= goal <= self.get("max_position_limit"):
-                return pk.ERR_DATA_LIMIT if p2 else P1_ANGLE
-        if p2 and "goal_current" in names:
-            f = self.table["goal_current"]
-            if abs(decode_int(new, f.address, f)) > self.get("current_limit"):
-                return pk.ERR_DATA_LIMIT
-        if "torque_enable" in names and new[self.table["torque_enable"].address] > 1:
-            return pk.ERR_DATA_RANGE if p2 else pk.ERRBIT1_RANGE
         return 0
 
     def read(self, address: int, length: int) -> bytes:
@@ -172,19 +175,33 @@ class Mx64Servo:
             self._step(dt, self.t_last + dt)
             self.t_last += dt
 
+    def max_speed_ticks_s(self) -> float:
+        """How fast the motor can follow its trajectory (Velocity Limit; P1: 1023 units)."""
+        units = self.get("velocity_limit") if self.protocol == 2 else 1023
+        return units * self.units.velocity_rpm / 60.0 * TICKS_PER_REV
+
+    def profiling(self) -> bool:
+        """Whether a Goal Position profile is in progress."""
+        return abs(self.get("goal_position") - self.trajectory) > 0.5
+
     def _step(self, dt: float, now: float) -> None:
         p2 = self.protocol == 2
-        wd = self.get("bus_watchdog") if p2 else 0
-        if 0 < wd < WATCHDOG_TRIPPED and now - self.t_last_packet > wd * WATCHDOG_UNIT_MS / 1000:
-            self.set("bus_watchdog", WATCHDOG_TRIPPED)
-            self.set("goal_position", round(self.position))
         on = bool(self.get("torque_enable"))
-        if on:
-            cap = self.current_cap_ma()
-            err = self.get("goal_position") - self.position
-            step = math.copysign(min(abs(err), self.speed_ticks_s() * dt), err)
+        wd = self.get("bus_watchdog") if p2 else 0
+        if on and 0 < wd < WATCHDOG_TRIPPED and now - self.t_last_packet > wd * WATCHDOG_UNIT_MS / 1000:
+            self.set("bus_watchdog", WATCHDOG_TRIPPED)  # "Bus Watchdog(98)": the servo stops
+            self.set("goal_position", round(self.position))
+            self.trajectory = self.position
+        cap = self.current_cap_ma()
+        if on and cap > 0:
+            err_t = self.get("goal_position") - self.trajectory
+            self.trajectory += math.copysign(min(abs(err_t), self.speed_ticks_s() * dt), err_t)
+            err = self.trajectory - self.position
+            step = math.copysign(min(abs(err), self.max_speed_ticks_s() * dt), err)
             target = self.position + step
-            current = 40.0 + 0.15 * abs(step / dt)
+            # current-based position control: current grows with speed and with the lag behind
+            # the trajectory (a jammed motor pushes with its full current)
+            current = 40.0 + 0.15 * abs(step / dt) + LAG_CURRENT_MA_PER_TICK * abs(self.trajectory - target)
             contact = None if self.object_ticks is None else self.object_ticks + COMPLIANCE_TICKS_PER_MA * cap
             if contact is not None and step > 0 and target >= contact:
                 target, current = max(self.position, contact), cap
@@ -192,12 +209,17 @@ class Mx64Servo:
             self.position, self.current_ma = target, min(current, cap)
         else:
             self.velocity, self.current_ma = 0.0, 0.0
+            if not on:
+                self.trajectory = self.position
         heat = HEAT_PER_MA2 * self.current_ma**2 - COOL_PER_S * (self.temperature_c - AMBIENT_C)
         self.temperature_c += heat * dt
         if self.temperature_c >= self.get("temperature_limit"):
             self.hw_error |= HW_OVERHEAT if p2 else P1_OVERHEAT
-        if self.hw_error & self.get("shutdown") and on:
-            self.set("torque_enable", 0)
+        if self.hw_error & self.get("shutdown"):
+            if p2 and on:
+                self.set("torque_enable", 0)
+            elif not p2 and self.get("torque_limit"):
+                self.set("torque_limit", 0)  # "Alarm Shutdown": output 0 % through Torque Limit(34)
 
     def refresh_registers(self) -> None:
         """Write the motor state into the present-value registers."""
@@ -206,7 +228,8 @@ class Mx64Servo:
         vel = round(self.velocity * 60.0 / TICKS_PER_REV / u.velocity_rpm)
         cur = round(self.current_ma / u.current_ma)
         self.set("present_temperature", round(self.temperature_c))
-        self.set("moving", int(abs(vel) > (self.get("moving_threshold") if self.protocol == 2 else 1)))
+        threshold = self.get("moving_threshold") if self.protocol == 2 else 1
+        self.set("moving", int(self.profiling() or abs(vel) > threshold))
         self.set("realtime_tick", int((time.monotonic() - self.t_boot) * 1000) % 32768)
         if self.protocol == 2:
             self.set("present_velocity", vel)
@@ -214,9 +237,10 @@ class Mx64Servo:
             self.set("present_input_voltage", round(self.voltage_v * 10))
             self.set("hardware_error_status", self.hw_error)
             in_position = abs(self.get("goal_position") - self.position) < 20
-            self.set("moving_status", int(in_position) | (int(bool(self.get("moving"))) << 1))
-            self.set("velocity_trajectory", vel)
-            self.set("position_trajectory", self.get("goal_position"))
+            self.set("moving_status", int(in_position) | (int(self.profiling()) << 1))
+            traj_vel = round(self.speed_ticks_s() * 60.0 / TICKS_PER_REV / u.velocity_rpm)
+            self.set("velocity_trajectory", traj_vel if self.profiling() else 0)
+            self.set("position_trajectory", round(self.trajectory))
         else:
             self.set("present_velocity", min(abs(vel), 1023) | (1024 if vel < 0 else 0))
             self.set("present_current", u.current_offset + cur)

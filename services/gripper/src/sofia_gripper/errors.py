@@ -30,8 +30,9 @@ class CommFailed(BusError):  # noqa: N818
 class ServoRefused(GripperError):  # noqa: N818
     """The servo answered with an error in its status packet."""
 
-    def __init__(self, what: str, reason: str) -> None:
+    def __init__(self, what: str, reason: str, error: int = 0) -> None:
         super().__init__(f"servo refused {what}: {reason}")
+        self.error = error  # the status packet's error (P2 error number, P1 error bits)
 
 
 class WrongModel(GripperError):  # noqa: N818

@@ -1,4 +1,4 @@
-"""Shared fixtures of the calibrator tests: the lab's real samples."""
+"""Shared fixtures of the calibrator tests: the lab's real samples, shipped in ``data/lab``."""
 
 from __future__ import annotations
 
@@ -7,11 +7,10 @@ from pathlib import Path
 import pytest
 
 REPO = Path(__file__).resolve().parents[2]
-LAB = REPO / ".." / "shared" / "data" / "lab"
+LAB = REPO / "data" / "lab"
 
 
 @pytest.fixture
 def lab_dir() -> Path:
-    if not (LAB / "poses.txt").is_file() or not (LAB / "tfs.txt").is_file():
-        pytest.skip(f"the lab's real samples are not at {LAB.resolve()} (poses.txt, tfs.txt)")
+    assert (LAB / "poses.txt").is_file() and (LAB / "tfs.txt").is_file(), f"missing lab samples in {LAB}"
     return LAB

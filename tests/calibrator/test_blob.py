@@ -69,3 +69,22 @@ def test_rejections_say_why() -> None:
 def test_small_specks_are_not_ambiguous() -> None:
     b = find_blob(*flat_frame([(300.0, 240.0, 20.0), (500.0, 100.0, 4.0)]))
     assert b.n_pixels > 1000
+
+
+def test_glare_on_the_rim_neither_shifts_the_blob_nor_keeps_full_confidence() -> None:
+    uc, vc, r = 300.0, 240.0, 20.0
+    clean = find_blob(*flat_frame([(uc, vc, r)]))
+    points, rgb = flat_frame([(uc, vc, r)])
+    v, u = np.mgrid[0:H, 0:W]
+    spot = ((u - uc) ** 2 + (v - vc) ** 2 <= r * r) & (u - uc > 10.0)  # a crescent of the rim glares
+    rgb[spot] = 255
+    points[spot] = np.nan  # specular pixels lose their depth too
+    glared = find_blob(points, rgb)
+    truth = np.array([(uc - 319.5) / F * 0.5, (vc - 239.5) / F * 0.5, 0.5])
+    # the plain centroid of the dark pixels that are left is off by more than a millimetre
+    dark = ((u - uc) ** 2 + (v - vc) ** 2 <= r * r) & ~spot
+    centroid = np.array([(u[dark].mean() - 319.5) / F * 0.5, (v[dark].mean() - 239.5) / F * 0.5, 0.5])
+    assert np.linalg.norm(centroid - truth) > 1e-3
+    assert np.linalg.norm(glared.p_cam - truth) < 3e-4
+    assert glared.confidence < 0.9 * clean.confidence
+    np.testing.assert_allclose(clean.p_cam, truth, atol=2e-4)

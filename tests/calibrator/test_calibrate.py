@@ -21,37 +21,61 @@ from sofia_calibrator import (
 from sofia_calibrator.simulate import make_problem
 
 
-def test_lab_data_plain_fit_fails_and_the_calibrator_names_the_cause(lab_dir: Path) -> None:
+def test_lab_data_default_models_the_depth_scale_and_keeps_every_sample(lab_dir: Path) -> None:
     p_cam, T = read_lab(lab_dir / "poses.txt", lab_dir / "tfs.txt")
     assert len(p_cam) == 11
     cal = calibrate(p_cam, T)
-    # a plain least-squares fit of every sample leaves more than 1 cm on some axis
-    assert cal.with_all_samples is not None
-    assert cal.with_all_samples.spread_mm.max() > 10.0
-    assert not cal.with_all_samples.passes
-    # the calibrator names the sample and meets the criterion without it
-    assert cal.outliers == [0]
-    assert cal.inliers == list(range(1, 11))
+    # every sample kept, the depth (z) reads about 5 % long, the lab's criterion met
+    assert cal.inliers == list(range(11)) and cal.outliers == [] and cal.with_all_samples is None
+    assert cal.correction.model == "depth_scale"
+    assert 0.94 <= cal.correction.depth_scale <= 0.96
+    assert cal.correction.depth_scale_sigma is not None and 0.002 < cal.correction.depth_scale_sigma < 0.02
     assert cal.passes and np.all(cal.spread_mm < 10.0)
-    assert any("0 (" in w and "excluded" in w for w in cal.warnings)
-    # the reported spread is the lab's criterion over the inliers, recomputed independently
-    mapped = map_to_base(T, cal.T_flange_cam, p_cam)
-    np.testing.assert_allclose(cal.spread_mm, 1e3 * spread(mapped[1:]), rtol=1e-9)
-    np.testing.assert_allclose(cal.dissipation_after, dissipation(mapped[1:]), rtol=1e-9)
-    # a camera about 12 cm from the flange, looking mostly along the flange's -y/z
+    # leave-one-out blob prediction RMS (the plain rigid fit: above 4 mm)
+    assert float(np.sqrt(np.mean(cal.leave_one_out_mm**2))) <= 2.6
+    # why: the F-test against the rigid model, and AIC, for every candidate
+    by_model = {c.model: c for c in cal.candidates}
+    assert set(by_model) == {"rigid", "depth_scale", "ray_scale"}
+    assert by_model["depth_scale"].p_value is not None and by_model["depth_scale"].p_value < 1e-6
+    assert by_model["depth_scale"].aic < by_model["rigid"].aic - 20
+    assert "F-test" in cal.correction_reason and "AIC" in cal.correction_reason
+    # the reported spread is the lab's criterion through the full model, recomputed independently
+    corrected = p_cam * np.r_[1.0, 1.0, cal.correction.depth_scale]
+    mapped = map_to_base(T, cal.T_flange_cam, corrected)
+    np.testing.assert_allclose(cal.map_to_base(p_cam, T), mapped, atol=1e-12)
+    np.testing.assert_allclose(cal.spread_mm, 1e3 * spread(mapped), rtol=1e-9)
+    np.testing.assert_allclose(cal.dissipation_after, dissipation(mapped), rtol=1e-9)
+    # a camera about 12 cm from the flange
     assert 0.05 < np.linalg.norm(cal.translation) < 0.2
     assert np.all(cal.std_translation_mm < 10.0) and np.all(cal.std_rotation_deg < 2.0)
-    # the sample that fails is also the one furthest from a fit made without it
+    assert not any("outlier" in w or "criterion" in w for w in cal.warnings)
+
+
+def test_lab_data_rigid_fails_the_criterion_and_only_advises(lab_dir: Path) -> None:
+    p_cam, T = read_lab(lab_dir / "poses.txt", lab_dir / "tfs.txt")
+    cal = calibrate(p_cam, T, correction="rigid")
+    assert cal.correction.model == "rigid" and cal.correction.depth_scale == 1.0
+    assert not cal.passes and cal.spread_mm.max() > 10.0
+    # nothing removed: the removal that would meet the criterion is advice
+    assert cal.inliers == list(range(11)) and cal.outliers == []
+    assert cal.criterion_advice == [0]
+    assert any("removing samples [0] would meet it" in w and "nothing was removed" in w for w in cal.warnings)
+    assert float(np.sqrt(np.mean(cal.leave_one_out_mm**2))) > 4.0
     assert int(np.argmax(cal.leave_one_out_mm)) == 0
 
 
-def test_lab_data_keeping_outliers_reports_the_other_fit(lab_dir: Path) -> None:
+def test_lab_leave_one_out_from_the_hat_matrix_matches_refits(lab_dir: Path) -> None:
     p_cam, T = read_lab(lab_dir / "poses.txt", lab_dir / "tfs.txt")
-    cal = calibrate(p_cam, T, exclude_outliers=False)
-    assert cal.outliers == [0] and cal.inliers == list(range(11))
-    assert not cal.passes
-    assert cal.without_outliers is not None and cal.without_outliers.passes
-    assert any("kept" in w for w in cal.warnings)
+    for correction in ("rigid", "depth_scale"):
+        cal = calibrate(p_cam, T, correction=correction)
+        exact = []
+        for i in range(11):
+            keep = np.delete(np.arange(11), i)
+            other = calibrate(p_cam[keep], T[keep], correction=correction, sigma=cal.sigma[keep])
+            exact.append(
+                1e3 * np.linalg.norm(other.map_to_base(p_cam[i : i + 1], T[i : i + 1])[0] - other.p_base)
+            )
+        np.testing.assert_allclose(cal.leave_one_out_mm, exact, rtol=0.1, atol=0.1)
 
 
 def test_lab_plain_fit_agrees_with_scipy_least_squares(lab_dir: Path) -> None:
@@ -59,19 +83,24 @@ def test_lab_plain_fit_agrees_with_scipy_least_squares(lab_dir: Path) -> None:
     from scipy.optimize import least_squares
 
     p_cam, T = read_lab(lab_dir / "poses.txt", lab_dir / "tfs.txt")
-    cal = calibrate(p_cam, T, sigma="uniform", exclude_outliers=False)
+    for correction in ("rigid", "depth_scale"):
+        cal = calibrate(p_cam, T, sigma="uniform", exclude_outliers=False, correction=correction)
 
-    def residuals(x: np.ndarray) -> np.ndarray:
-        T_fc = np.eye(4)
-        T_fc[:3, :3] = Rotation.from_rotvec(x[:3]).as_matrix()
-        T_fc[:3, 3] = x[3:6]
-        return (map_to_base(T, T_fc, p_cam) - x[6:]).ravel()
+        def residuals(x: np.ndarray, correction: str = correction) -> np.ndarray:
+            T_fc = np.eye(4)
+            T_fc[:3, :3] = Rotation.from_rotvec(x[:3]).as_matrix()
+            T_fc[:3, 3] = x[3:6]
+            p = p_cam * np.r_[1.0, 1.0, x[9]] if correction == "depth_scale" else p_cam
+            return (map_to_base(T, T_fc, p) - x[6:9]).ravel()
 
-    x0 = np.r_[
-        Rotation.from_matrix(cal.T_flange_cam[:3, :3]).as_rotvec() + 0.05, cal.translation + 0.01, cal.p_base
-    ]
-    ref = least_squares(residuals, x0, xtol=1e-14, ftol=1e-14, gtol=1e-14)
-    np.testing.assert_allclose(cal.translation, ref.x[3:6], atol=1e-6)
+        x0 = np.r_[
+            Rotation.from_matrix(cal.T_flange_cam[:3, :3]).as_rotvec() + 0.05, cal.translation + 0.01,
+            cal.p_base, 1.0,
+        ]  # fmt: skip
+        ref = least_squares(residuals, x0, xtol=1e-14, ftol=1e-14, gtol=1e-14)
+        np.testing.assert_allclose(cal.translation, ref.x[3:6], atol=1e-6)
+        if correction == "depth_scale":
+            np.testing.assert_allclose(cal.correction.depth_scale, ref.x[9], atol=1e-6)
 
 
 def test_clear_outlier_is_found_by_robust_statistics() -> None:
@@ -82,7 +111,7 @@ def test_clear_outlier_is_found_by_robust_statistics() -> None:
     assert cal.outliers == [7]
     assert cal.with_all_samples is not None
     assert np.linalg.norm(cal.translation - pr.T_flange_cam[:3, 3]) < 0.005
-    assert any("clear outlier(s) by robust statistics" in w for w in cal.warnings)
+    assert any("clear outlier by the leave-one-out test" in w for w in cal.warnings)
 
 
 def test_clean_data_has_no_outliers_and_passes() -> None:

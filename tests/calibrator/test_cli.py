@@ -8,6 +8,8 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import pytest
+import yaml
 from sofia_calibrator import to_message, to_yaml
 from sofia_calibrator.calibrate import calibrate
 from sofia_calibrator.simulate import make_problem
@@ -28,12 +30,27 @@ def test_calibrate_lab_json_and_plot(lab_dir: Path, tmp_path: Path) -> None:
     assert r.returncode == 0, r.stderr
     body = json.loads(r.stdout)
     assert all(k in body for k in KEYS)
-    assert body["outliers"] == [0] and body["passes"]
-    assert max(body["spread_mm"]) < 10.0 and max(body["with_all_samples"]["spread_mm"]) > 10.0
+    assert body["outliers"] == [] and body["inliers"] == list(range(11)) and body["passes"]
+    assert max(body["spread_mm"]) < 10.0 and body["with_all_samples"] is None
+    corr = body["camera_correction"]
+    assert (
+        corr["model"] == "depth_scale"
+        and 0.94 <= corr["depth_scale"] <= 0.96
+        and corr["depth_scale_sigma"] > 0
+    )
+    assert [c["model"] for c in body["correction_models"] if c["chosen"]] == ["depth_scale"]
+    cov = np.array(body["covariance"])
+    assert cov.shape == (6, 6) and np.allclose(cov, cov.T) and np.all(np.linalg.eigvalsh(cov) > 0)
+    np.testing.assert_allclose(1e3 * np.sqrt(np.diag(cov)[:3]), body["std_translation_mm"], rtol=1e-6)
+    assert 0.5 < body["noise_mm"] < 3.0
     assert np.allclose(np.array(body["matrix"])[:3, 3], body["translation"])
     assert "panda_link8 panda_camera" in body["ros1_static_transform"]
     assert out.stat().st_size > 20_000 and out.read_bytes()[:4] == b"\x89PNG"
-    assert "quaternion_xyzw:" in (tmp_path / "cal.yaml").read_text()
+    doc = yaml.safe_load((tmp_path / "cal.yaml").read_text())
+    assert doc["camera_correction"]["model"] == "depth_scale"
+    np.testing.assert_allclose(doc["covariance"], cov, rtol=1e-3, atol=1e-12)
+    assert doc["noise_mm"] == pytest.approx(body["noise_mm"], rel=1e-6)
+    assert "reads 5." in (tmp_path / "cal.yaml").read_text()  # what the correction means, in words
 
 
 def test_calibrate_with_guess_gives_the_same_answer(lab_dir: Path) -> None:
@@ -112,3 +129,19 @@ def test_calibrate_from_joints(tmp_path: Path) -> None:
     )
     assert r.returncode == 0, r.stderr
     np.testing.assert_allclose(json.loads(r.stdout)["matrix"], T_fc, atol=1e-6)
+
+
+def test_frames_are_options_and_a_w_first_guess_is_one_more_start(lab_dir: Path) -> None:
+    base = ["calibrate", "--poses", str(lab_dir / "poses.txt"), "--tfs", str(lab_dir / "tfs.txt"), "--json"]
+    a = json.loads(sofia(*base).stdout)
+    # "0 0 0 1 0 0 0" typed w first is a 180-degree turn in x y z w: the closed form still wins
+    r = sofia(*base, "--guess", "0", "0", "0", "1", "0", "0", "0", "--parent-frame", "fr3_link8",
+              "--child-frame", "cam_optical")  # fmt: skip
+    assert r.returncode == 0, r.stderr
+    b = json.loads(r.stdout)
+    np.testing.assert_allclose(a["matrix"], b["matrix"], atol=1e-6)
+    assert b["inliers"] == list(range(11)) and b["passes"]
+    assert b["parent_frame"] == "fr3_link8" and b["child_frame"] == "cam_optical"
+    assert "fr3_link8 cam_optical 100" in b["ros1_static_transform"]
+    assert "--frame-id fr3_link8 --child-frame-id cam_optical" in b["ros2_static_transform"]
+    assert a["parent_frame"] == "panda_link8" and a["child_frame"] == "panda_camera"

@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import zenoh
+from sofia_calibrator import calibrate
 from sofia_calibrator.simulate import make_problem
 from sofia_schemas.keys import Keys
 from sofia_schemas.messages import BlobObservation, CalibrationResult, FlangePose
@@ -99,6 +100,12 @@ def test_service_online_queries_errors_and_restart(
     last = results[-1]
     assert np.abs(np.array(last.matrix) - pr.T_flange_cam).max() < 0.01
     assert last.passes and last.sample_ids == list(range(8))
+    # the service solves as `sofia calibrate` does by default: noise and correction from the data
+    offline = calibrate(pr.p_cam, pr.T_base_flange)
+    assert np.abs(np.array(last.matrix) - offline.T_flange_cam).max() < 1e-6
+    assert last.noise_mm == pytest.approx(offline.noise_mm, rel=1e-4)
+    assert last.camera_correction.model == offline.correction.model and len(last.correction_models) == 3
+    assert np.allclose(last.covariance, offline.covariance6, rtol=1e-3, atol=1e-15)
 
     ok, body = query(session, keys.calibrator_op("result"))
     assert ok and body["n_samples"] == 8 and len(body["matrix"]) == 4
@@ -120,6 +127,12 @@ def test_service_online_queries_errors_and_restart(
     assert not ok and "no sample with id 99" in body["message"]
     ok, body = query(session, keys.calibrator_op("solve"), json.dumps({"loss": "l1"}))
     assert not ok and "loss must be one of" in body["message"]
+    ok, body = query(session, keys.calibrator_op("solve"), json.dumps({"noise": "gaussian"}))
+    assert not ok and "'auto', 'depth', 'uniform'" in body["message"] and "'gaussian'" in body["message"]
+    ok, body = query(
+        session, keys.calibrator_op("solve"), json.dumps({"noise": "depth", "correction": "depth_scale"})
+    )
+    assert ok and body["camera_correction"]["model"] == "depth_scale" and body["noise_mm"] > 0
     ok, body = query(session, keys.calibrator_op("solve"), json.dumps({"loss": "huber", "noise": "uniform"}))
     assert ok and body["n_samples"] == 8
 
@@ -133,7 +146,8 @@ def test_service_online_queries_errors_and_restart(
     assert len(log_lines) == 10  # 8 + add + remove
     with lock:
         results.clear()
-    proc2 = sofia_proc("calibrator", "serve", "--state-dir", str(state))
+    frames = ("--parent-frame", "tool_flange", "--child-frame", "d435_color_optical_frame")
+    proc2 = sofia_proc("calibrator", "serve", "--state-dir", str(state), *frames)
     proc2.wait_for_log("calibrator ready")
     assert "resumed 8 samples" in proc2.log()
     wait_until_served(session, keys)
@@ -141,6 +155,8 @@ def test_service_online_queries_errors_and_restart(
     assert ok and len(body["samples"]) == 8
     ok, body = query(session, keys.calibrator_op("result"))
     assert ok and np.abs(np.array(body["matrix"]) - np.array(last.matrix)).max() < 1e-9
+    assert (body["parent_frame"], body["child_frame"]) == ("tool_flange", "d435_color_optical_frame")
+    assert "tool_flange d435_color_optical_frame" in body["ros1_static_transform"]
 
     # with too few samples left, no result of the removed samples is kept
     ok, body = query(session, keys.calibrator_op("remove"), json.dumps({"sample_ids": [0, 1, 2, 3, 4, 5]}))
@@ -166,25 +182,28 @@ def test_service_extracts_the_blob_from_camera_clouds(
     proc = sofia_proc("calibrator", "serve", "--state-dir", str(tmp_path / "state"), "--from-clouds")
     proc.wait_for_log("calibrator ready")
     wait_until_served(session, keys)
+    # BLOCK: while the service extracts a blob, a 4.9 MB cloud and the poses around it back up, and
+    # Zenoh's default (drop) would lose some of them before they reach the service
+    poses = session.declare_publisher(keys.flange_pose, congestion_control=zenoh.CongestionControl.BLOCK)
+    clouds = session.declare_publisher(keys.camera_points, congestion_control=zenoh.CongestionControl.BLOCK)
     cal_session = make_calibration_session(5, np.random.default_rng(9))
     for k, f in enumerate(cal_session.frames):
         stamp = T0_NS + k * PERIOD_NS
         for dt in (-100_000_000, 0):
-            session.put(
-                keys.flange_pose, encode_flange_pose(FlangePose.from_matrix(f.T_base_flange, stamp + dt))
-            )
-        session.put(
-            keys.camera_points, encode_points(f.points_cam, stamp_ns=stamp, frame_id="cam", rgb=f.rgb)
-        )
-        session.put(
-            keys.flange_pose, encode_flange_pose(FlangePose.from_matrix(f.T_base_flange, stamp + 100_000_000))
-        )
+            poses.put(encode_flange_pose(FlangePose.from_matrix(f.T_base_flange, stamp + dt)))
+        clouds.put(encode_points(f.points_cam, stamp_ns=stamp, frame_id="cam", rgb=f.rgb))
+        poses.put(encode_flange_pose(FlangePose.from_matrix(f.T_base_flange, stamp + 100_000_000)))
     rgb = cal_session.frames[0].rgb.copy()
     rgb[:] = 240  # no blob in view: rejected with the reason, the service keeps running
-    session.put(keys.camera_points, encode_points(cal_session.frames[0].points_cam, stamp_ns=T0_NS + 9 * PERIOD_NS,
-                                                  frame_id="cam", rgb=rgb))  # fmt: skip
+    clouds.put(
+        encode_points(
+            cal_session.frames[0].points_cam, stamp_ns=T0_NS + 9 * PERIOD_NS, frame_id="cam", rgb=rgb
+        )
+    )
+    proc.wait_for_log("no blob found", timeout=60)
     proc.wait_for_log("solved with 5 samples", timeout=60)
-    proc.wait_for_log("no blob found")
     ok, body = query(session, keys.calibrator_op("result"))
-    assert ok and body["n_samples"] == 5
+    assert ok and body["n_samples"] == 5 and body["parent_frame"] == "panda_link8"
     assert np.linalg.norm(np.array(body["translation"]) - cal_session.T_flange_cam[:3, 3]) < 0.005
+    ok, body = query(session, keys.status("calibrator"))
+    assert ok and body["counters"]["dropped_clouds"] == 0 and body["counters"]["samples"] == 5

@@ -64,13 +64,14 @@ def test_guess_is_accepted_and_reaches_the_same_optimum() -> None:
 
 
 def test_uncertainty_matches_the_spread_of_estimates() -> None:
-    """The 1-sigma from the covariance agrees with the Monte Carlo scatter (within 30 %)."""
+    """The 1-sigma from the covariance agrees with the Monte Carlo scatter (within 30 %) for a
+    fixed model (model choice adds its own scatter: see test_noise's coverage)."""
     rng = np.random.default_rng(5)
     base = make_problem(15, rng)
     est, std = [], []
     for _ in range(150):
         p_cam = base.p_cam_true + rng.standard_normal(base.p_cam.shape) * base.sigma
-        cal = calibrate(p_cam, base.T_base_flange, sigma=base.sigma, leave_one_out=False)
+        cal = calibrate(p_cam, base.T_base_flange, sigma=base.sigma, leave_one_out=False, correction="rigid")
         est.append(cal.translation)
         std.append(cal.std_translation_mm)
     mc = 1e3 * np.std(np.array(est), axis=0)

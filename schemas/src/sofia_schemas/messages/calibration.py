@@ -2,9 +2,77 @@
 
 from __future__ import annotations
 
+from typing import Literal
+
+import numpy as np
 from pydantic import Field
 
-from .base import Message, Quat, Vec3
+from .base import Finite, Message, Quat, Vec3
+
+CorrectionModel = Literal["rigid", "depth_scale", "ray_scale", "depth_scale_offset"]
+# Zenoh attachment of a camera-frame cloud whose producer already applied the calibration's
+# CameraCorrection: consumers (the detector) must then not apply it again.
+CORRECTION_APPLIED_ATTACHMENT = b"sofia.camera_correction=applied"
+
+
+def correction_applied(attachment: bytes | None) -> bool:
+    """Whether a cloud's Zenoh attachment says its producer already applied the camera correction."""
+    return attachment is not None and bytes(attachment).startswith(CORRECTION_APPLIED_ATTACHMENT)
+
+
+class CameraCorrection(Message):
+    """Correction of the camera's measured points chosen by the calibration (identity by default).
+
+    ``rigid``: none. ``depth_scale``: the camera-frame z is multiplied by ``depth_scale`` (x and y
+    stay). ``ray_scale``: the whole point, i.e. its distance along the viewing ray, is multiplied
+    by ``depth_scale``. ``depth_scale_offset``: z becomes ``depth_scale * z + depth_offset_m``.
+    A depth scale of 0.95 means the camera's depth reads 5.3 % long (1 / 0.95 - 1).
+    """
+
+    model: CorrectionModel = "rigid"
+    depth_scale: Finite = Field(1.0, gt=0.0)
+    depth_scale_sigma: Finite | None = None  # 1-sigma of depth_scale
+    depth_offset_m: Finite = 0.0
+
+    @property
+    def is_identity(self) -> bool:
+        return self.model == "rigid" or (self.depth_scale == 1.0 and self.depth_offset_m == 0.0)
+
+    def describe(self) -> str:
+        """One line saying what the correction means for the user."""
+        if self.model == "rigid":
+            return "camera correction: none (rigid model): the camera's depth agrees with the robot"
+        s = self.depth_scale
+        pct = 100.0 * (1.0 / s - 1.0)
+        what = "range along each ray" if self.model == "ray_scale" else "depth (camera z)"
+        sig = f" +- {self.depth_scale_sigma:.4f}" if self.depth_scale_sigma is not None else ""
+        off = f", then {1e3 * self.depth_offset_m:+.1f} mm" if self.depth_offset_m else ""
+        how = (
+            f"set the D435 depth units to {s:.4f} x the present ones (0.001 -> {0.001 * s:.7f}), or"
+            if self.model == "ray_scale"
+            else "the D435 depth units would also scale x and y:"
+        )
+        return (
+            f"camera correction: {self.model}, scale {s:.4f}{sig}{off}: the camera's {what} reads "
+            f"{abs(pct):.1f} % {'long' if pct > 0 else 'short'}; multiply it by {s:.4f} ({how} let the "
+            "camera service / detector apply camera_correction)"
+        )
+
+    def apply(self, points_cam: np.ndarray) -> np.ndarray:
+        """Corrected points: (n, 3) (or (..., 3)) measured, camera optical frame, metres -> same
+        shape, corrected. NaN passes through; the input is not modified."""
+        p = np.asarray(points_cam, dtype=np.float64)
+        if p.shape[-1:] != (3,):
+            raise ValueError(f"points_cam must have shape (..., 3), got {p.shape}")
+        if self.model == "rigid":
+            return p.copy()
+        if self.model == "ray_scale":
+            return p * self.depth_scale
+        out = p.copy()
+        out[..., 2] = p[..., 2] * self.depth_scale
+        if self.model == "depth_scale_offset":
+            out[..., 2] += self.depth_offset_m
+        return out
 
 
 class CalibrationSample(Message):
@@ -16,6 +84,20 @@ class CalibrationSample(Message):
     rotation_xyzw: Quat  # T_base_flange rotation, x y z w
     confidence: float = Field(1.0, ge=0.0, le=1.0)
     sample_id: int | None = None
+
+
+class CorrectionCandidate(Message):
+    """One camera-correction model the calibration tried (fitted jointly with T_flange_cam)."""
+
+    model: CorrectionModel
+    n_params: int  # unknowns, T_flange_cam and the blob included
+    chi2: float  # sum of squared residuals in units of the nominal noise
+    aic: float  # n_obs log(chi2 / n_obs) + 2 n_params (relative: compare between models)
+    p_value: float | None = None  # F-test against the rigid model (None for rigid itself)
+    depth_scale: float = 1.0
+    depth_scale_sigma: float | None = None
+    depth_offset_m: float = 0.0
+    chosen: bool = False
 
 
 class CalibrationSummary(Message):
@@ -61,6 +143,14 @@ class CalibrationResult(Message):
     sample_ids: list[int] = []  # ids of the samples (service), in the order of the indices above
     with_all_samples: CalibrationSummary | None = None  # when outliers were excluded
     without_outliers: CalibrationSummary | None = None  # when outliers were found but kept
+    camera_correction: CameraCorrection = CameraCorrection()  # apply to camera points before T_flange_cam
+    correction_models: list[CorrectionCandidate] = []  # every model tried, the chosen one marked
+    correction_reason: str = ""  # why the chosen model was chosen (F-test p-value, AIC)
+    noise_mm: float | None = None  # estimated 1-sigma per camera axis of a blob, RMS over the inliers, mm
+    # 6x6 covariance of T_flange_cam: (tx, ty, tz) metres, flange frame, then (rx, ry, rz) radians
+    # about the flange axes (left perturbation); scaled by the noise estimated from the data
+    covariance: list[list[float]] = []
+    criterion_advice: list[int] = []  # samples whose removal would make the lab criterion pass (advice)
 
 
 class CalibrationSamples(Message):
@@ -73,7 +163,8 @@ class CalibrationSolveOptions(Message):
     """Payload of ``calibrator/solve`` (every field optional)."""
 
     loss: str = "linear"  # linear | huber | cauchy
-    noise: str = "depth"  # depth | uniform
+    noise: str = "auto"  # auto (isotropic + the D435's, estimated) | depth | uniform
+    correction: str = "auto"  # auto (chosen by an F-test) | rigid | depth_scale | ray_scale
     exclude_outliers: bool = True
     guess: tuple[float, float, float, float, float, float, float] | None = None  # x y z qx qy qz qw
 

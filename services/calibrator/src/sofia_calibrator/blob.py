@@ -1,7 +1,10 @@
 """Find the dark calibration blob on the white sheet in an organized RGB-D cloud.
 
 The blob's 3D centre is where the ray through the blob's pixel centroid meets the plane fitted to
-the sheet around it, so it is robust to missing or noisy depth on the blob itself.
+the sheet around it, so it is robust to missing or noisy depth on the blob itself. Specular glare
+(saturated pixels, bright depth holes) touching the blob's rim would pull the centroid away: the
+centre then comes from an ellipse fitted to the rim that is left, and the confidence drops by the
+fraction of the rim the glare touches.
 """
 
 from __future__ import annotations
@@ -19,6 +22,8 @@ MIN_PIXELS = 30
 RING_PX = 6
 MIN_WHITE_RING = 0.75  # fraction of the blob's surrounding ring that must be sheet
 AMBIGUOUS_RATIO = 0.3  # a second blob this large relative to the first is ambiguous
+SATURATED = 250  # grey level of specular glare (the sheet itself stays below)
+MIN_CLEAN_RIM = 12  # rim pixels free of glare needed to fit the blob's outline
 
 
 @dataclass
@@ -65,6 +70,34 @@ def _plane(points: np.ndarray) -> tuple[np.ndarray, float, float]:
     return n, float(n @ c), float(np.sqrt(np.mean(r[keep] ** 2)))
 
 
+def _glare(mask: np.ndarray, grey: np.ndarray, points_cam: np.ndarray) -> tuple[np.ndarray, float]:
+    """Rim pixels of the blob free of glare (k, 2) as (u, v), and the fraction of the rim that
+    touches specular pixels (saturated, or without depth while bright)."""
+    vv, uu = np.nonzero(mask)
+    r0, c0 = max(int(vv.min()) - 4, 0), max(int(uu.min()) - 4, 0)
+    win = (slice(r0, int(vv.max()) + 5), slice(c0, int(uu.max()) + 5))  # the blob and its rim only
+    m, g = mask[win], grey[win]
+    rim = m & ~ndimage.binary_erosion(m)
+    holes = ~np.isfinite(points_cam[win]).all(axis=2) & (g > BRIGHT)
+    touched = rim & ndimage.binary_dilation((g >= SATURATED) | holes, iterations=2)
+    rv, ru = np.nonzero(rim & ~touched)
+    return np.c_[ru + c0, rv + r0].astype(np.float64), float(touched.sum()) / max(int(rim.sum()), 1)
+
+
+def _ellipse_centre(uv: np.ndarray) -> tuple[float, float] | None:
+    """Centre (u, v) of the conic a x^2 + b xy + (1 - a) y^2 + d x + e y + f = 0 fitted to (k, 2)
+    outline points by least squares (coordinates centred for conditioning); None if not an ellipse."""
+    c = uv.mean(axis=0)
+    x, y = (uv - c).T
+    A = np.c_[x * x - y * y, x * y, x, y, np.ones_like(x)]
+    a, b, d, e, _ = np.linalg.lstsq(A, -y * y, rcond=None)[0]
+    M = np.array([[2 * a, b], [b, 2 * (1 - a)]])
+    if np.linalg.det(M) <= 0:
+        return None
+    x0, y0 = np.linalg.solve(M, [-d, -e])
+    return float(x0 + c[0]), float(y0 + c[1])
+
+
 def find_blob(points_cam: np.ndarray, rgb: np.ndarray) -> Blob:
     """The blob in an organized cloud.
 
@@ -106,6 +139,11 @@ def find_blob(points_cam: np.ndarray, rgb: np.ndarray) -> Blob:
     mask = labels == label
     vv, uu = np.nonzero(mask)
     u_c, v_c = float(uu.mean()), float(vv.mean())
+    clean_rim, glare = _glare(mask, grey, points_cam)
+    if glare > 0.0:  # glare eats part of the blob: its centre from the outline that is left
+        centre = _ellipse_centre(clean_rim) if len(clean_rim) >= MIN_CLEAN_RIM else None
+        if centre is not None and np.hypot(centre[0] - u_c, centre[1] - v_c) < 0.5 * np.sqrt(size):
+            u_c, v_c = centre
     ring = ndimage.binary_dilation(mask, iterations=RING_PX) & ~mask & bright
     on_plane = (mask | ring) & np.isfinite(points_cam).all(axis=2)
     n_valid = int((mask & on_plane).sum())
@@ -120,5 +158,7 @@ def find_blob(points_cam: np.ndarray, rgb: np.ndarray) -> Blob:
     p_cam = ray * (d / denom)
     contrast = float(grey[ring].mean() - grey[mask].mean()) if ring.any() else 0.0
     fill = size / max(np.pi * 0.25 * np.ptp(uu + 1) * np.ptp(vv + 1), 1.0)  # 1 for a full ellipse
-    confidence = float(np.clip(contrast / 150.0, 0, 1) * np.clip(fill, 0, 1) * np.exp(-rms / 0.005))
+    confidence = float(
+        np.clip(contrast / 150.0, 0, 1) * np.clip(fill, 0, 1) * np.exp(-rms / 0.005) * (1.0 - glare)
+    )
     return Blob(p_cam, confidence, size, (u_c, v_c))

@@ -2,24 +2,31 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Literal
 
 import numpy as np
 from sofia_schemas.transforms import as_points, as_transforms
 
+from . import correction as cc
 from . import diagnostics as dg
+from .advice import criterion_advice, noise_warning, redundancy_warning
 from .errors import InputMismatch, TooFewSamples
-from .fit import Fit, Problem, warm_start
-from .noise import camera_sigma
+from .fit import Fit, Problem, Selection
+from .influence import Influence, influence
+from .noise import ISOTROPIC_PRIOR_M, NoiseModel, camera_sigma
 from .solver import LOSSES
 
 MIN_SAMPLES = 3
+PARENT_FRAME = "panda_link8"  # the lab's launch file: flange
+CHILD_FRAME = "panda_camera"
+MAX_ADVICE = 5  # at most this many samples named as the removal that would meet the lab criterion
 
 
 @dataclass
 class Calibration(Fit):
-    """The chosen fit plus what explains it: outliers, leave-one-out residuals, the other fit."""
+    """The chosen fit plus what explains it: outliers, leave-one-out residuals, the other fit, the
+    correction models compared. ``map_to_base(p_cam, T_base_flange)`` applies the full model."""
 
     inliers: list[int] = field(default_factory=list)
     outliers: list[int] = field(default_factory=list)
@@ -29,11 +36,19 @@ class Calibration(Fit):
     without_outliers: Fit | None = None  # set when outliers were found but kept
     p_cam: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
     T_base_flange: np.ndarray = field(default_factory=lambda: np.zeros((0, 4, 4)))
+    candidates: list[cc.Candidate] = field(default_factory=list)  # correction models compared
+    correction_reason: str = ""
+    criterion_advice: list[int] = field(default_factory=list)  # removal that would meet the criterion
+    parent_frame: str = PARENT_FRAME
+    child_frame: str = CHILD_FRAME
+    guess_given: bool = False  # mapped_start is through the guess (else the identity)
+    # (n, 3) measured minus predicted blob of the reference (rigid) fit, camera frame, mm (NaN: not fitted)
+    reference_residuals_mm: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
 
 
 def _validate(
-    p_cam: np.ndarray, T_base_flange: np.ndarray, sigma: np.ndarray | str | None, guess: np.ndarray | None
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray | None]:
+    p_cam: np.ndarray, T_base_flange: np.ndarray, guess: np.ndarray | None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
     p = as_points(p_cam, "p_cam")
     T = as_transforms(T_base_flange, "T_base_flange")
     if T.ndim != 3:
@@ -48,58 +63,56 @@ def _validate(
             f"p_cam rows {behind.tolist()} have z <= 0 (z = {p[behind, 2].tolist()}): the camera optical "
             "frame looks along +z, so the blob must be in front of the camera"
         )
-    if sigma is None or (isinstance(sigma, str) and sigma == "depth"):
-        s = camera_sigma(p)
-    elif isinstance(sigma, str) and sigma == "uniform":
-        s = np.full_like(p, 1e-3)
-    elif isinstance(sigma, str):
-        raise InputMismatch(f"sigma must be 'depth', 'uniform' or an array, got {sigma!r}")
-    else:
-        s = np.broadcast_to(np.asarray(sigma, dtype=np.float64).reshape(len(p), -1), p.shape).copy()
-        if not np.all(np.isfinite(s) & (s > 0)):
-            raise InputMismatch(f"sigma must be finite and positive, got {s.tolist()}")
     g = None if guess is None else as_transforms(guess, "guess (T_flange_cam)")
     if g is not None and g.ndim != 2:
         raise InputMismatch(f"guess must be one (4, 4) T_flange_cam, got {g.shape}")
-    return p, T, s, g
+    return p, T, g
 
 
-def _leave_one_out(prob: Problem, idx: list[int], start: Fit) -> list[Fit]:
-    """Fits without each sample of ``idx`` in turn, warm-started from ``start``."""
-    members = np.array(idx)
-    return [prob.fit(members[members != i], start=warm_start(start))[0] for i in idx]
+def _noise(p: np.ndarray, sigma: object, confidence: np.ndarray | None) -> NoiseModel:
+    """The noise model of the ``sigma`` option (see :func:`calibrate`), divided by ``confidence``."""
+    if sigma is None or (isinstance(sigma, str) and sigma == "auto"):
+        model = NoiseModel(camera_sigma(p), True, ISOTROPIC_PRIOR_M)
+    elif isinstance(sigma, str) and sigma == "depth":
+        model = NoiseModel(camera_sigma(p), False, 1.0)
+    elif isinstance(sigma, str) and sigma == "uniform":
+        model = NoiseModel(np.full_like(p, 1e-3), False, 1.0)
+    elif isinstance(sigma, str):
+        raise InputMismatch(f"sigma must be 'auto', 'depth', 'uniform' or an array, got {sigma!r}")
+    else:
+        try:
+            s = np.broadcast_to(np.asarray(sigma, dtype=np.float64).reshape(len(p), -1), p.shape).copy()
+        except ValueError:
+            raise InputMismatch(f"sigma must be (n, 3) or (n,) for n = {len(p)} samples, got "
+                                f"{np.asarray(sigma).shape}") from None  # fmt: skip
+        if not np.all(np.isfinite(s) & (s > 0)):
+            raise InputMismatch(f"sigma must be finite and positive, got {s.tolist()}")
+        model = NoiseModel(s, False, 1.0)
+    if confidence is None:
+        return model
+    c = np.asarray(confidence, dtype=np.float64).reshape(-1)
+    if c.shape != (len(p),) or not np.all(np.isfinite(c) & (c > 0) & (c <= 1)):
+        raise InputMismatch(f"confidence must be (n,) = ({len(p)},) values in (0, 1], got {c.tolist()}")
+    return replace(model, base=model.base / np.clip(c, 0.05, 1.0)[:, None])
 
 
-def _clear_outliers(prob: Problem, fit: Fit, alpha: float, keep_min: int) -> tuple[list[int], Fit]:
-    """Clear outliers, worst first: both the sample's residual and its leave-one-out residual (from a
-    fit without it) are beyond the chi-square limit of the noise scale of the other samples."""
-    outliers: list[int] = []
-    while len(fit.samples) > keep_min:
-        inl = np.array(fit.samples)
-        w = prob.whitened(fit)[inl]
-        k = int(np.argmax(w))
-        if dg.outlier_ratio(w[k : k + 1], np.delete(w, k), alpha)[0] <= 1.0:
-            break
-        rest = np.delete(inl, k)
-        fit_rest = prob.fit(rest, start=warm_start(fit))[0]
-        w_rest = prob.whitened(fit_rest)
-        if dg.outlier_ratio(w_rest[inl[k : k + 1]], w_rest[rest], alpha)[0] <= 1.0:
-            break
-        outliers.append(int(inl[k]))
-        fit = fit_rest
-    return outliers, fit
+def _models(correction: str) -> tuple[str, ...]:
+    if correction == "auto":
+        return cc.MODELS
+    if correction not in cc.MODELS:
+        raise InputMismatch(f"correction must be 'auto' or one of {cc.MODELS}, got {correction!r}")
+    return (correction,)
 
 
-def _criterion_outliers(fit: Fit, prob: Problem, max_remove: int) -> tuple[list[int], Fit]:
-    """The fewest samples (greedy, at most ``max_remove``) whose removal makes the fit meet the lab's
-    criterion; none when that is not enough."""
-    removed: list[int] = []
-    while not fit.passes and len(removed) < max_remove:
-        fits = _leave_one_out(prob, fit.samples, fit)
-        k = int(np.argmin([f.spread_mm.max() for f in fits]))
-        removed.append(fit.samples[k])
-        fit = fits[k]
-    return (removed, fit) if fit.passes else ([], fit)
+def _loo_mm(sel: Selection, idx: np.ndarray, residuals_mm: np.ndarray, inf: Influence | None) -> np.ndarray:
+    """(n_all,) leave-one-out prediction error of each sample, mm (hat matrix for the samples of
+    the fit; the plain residual for the others, which the fit did not use). ``inf``: the selection's
+    influence when already computed."""
+    loo = residuals_mm.copy()
+    if 3 * len(idx) - sel.solution.JtJ.shape[0] > 0:
+        d = (inf or influence(sel.solution)).loo_whitened * sel.noise.sigma(idx)
+        loo[idx] = 1e3 * np.linalg.norm(d, axis=1)
+    return loo
 
 
 def calibrate(
@@ -107,80 +120,107 @@ def calibrate(
     T_base_flange: np.ndarray,
     *,
     guess: np.ndarray | None = None,
-    sigma: np.ndarray | Literal["depth", "uniform"] | None = None,
+    sigma: np.ndarray | Literal["auto", "depth", "uniform"] | None = None,
     loss: str = "linear",
     loss_scale: float = 3.0,
     exclude_outliers: bool = True,
     outlier_alpha: float = dg.OUTLIER_ALPHA,
     enforce_criterion: bool = True,
     leave_one_out: bool = True,
+    correction: str = "auto",
+    confidence: np.ndarray | None = None,
+    parent_frame: str = PARENT_FRAME,
+    child_frame: str = CHILD_FRAME,
 ) -> Calibration:
     """Hand-eye calibration from a blob fixed in the world, seen from n flange poses.
 
-    p_cam: (n, 3) blob, camera optical frame, metres. T_base_flange: (n, 4, 4) flange poses in the
-    base frame. guess: optional (4, 4) T_flange_cam start (never required: a closed-form linear
-    solution starts the refinement). sigma: per-sample camera-frame noise, (n, 3) or (n,) metres,
-    "depth" (default: D435 model, depth noise ~ z^2) or "uniform" (1 mm).
-    loss: "linear", "huber" or "cauchy" (scale in sigma units).
+    p_cam: (n, 3) blob, camera optical frame, metres. T_base_flange: (n, 4, 4) flange poses
+    (panda_link0 -> panda_link8) in the base frame. guess: optional (4, 4) T_flange_cam, one more
+    start beside the closed form (never required). loss: "linear", "huber" or "cauchy" (scale in
+    sigma units).
+    sigma: the noise model; its level is always estimated from the residuals. "auto" (default,
+    None): an isotropic component (robot, blob extraction) added to the D435 model; "depth": the
+    D435 model times a factor; "uniform": isotropic; an (n, 3) or (n,) array (metres): relative
+    weights times a factor. confidence: optional (n,) in (0, 1] dividing each sample's sigma.
+    correction: "auto" chooses rigid / depth_scale / ray_scale by an F-test; or one of them.
 
-    Outliers are clear robust-statistics outliers (the residual and the leave-one-out residual
-    both beyond the chi-square limit of the median-estimated noise scale, family-wise false-alarm
-    rate ``outlier_alpha``) and, when ``enforce_criterion`` and the fit fails
-    the lab's 1 cm criterion, the fewest samples (at most a fifth) whose removal makes it pass.
-    exclude_outliers: the returned fit leaves them out (the fit with every sample stays in
-    ``with_all_samples``); otherwise it keeps them (``without_outliers`` holds the other fit).
-    Returns a :class:`Calibration`; its ``T_flange_cam`` maps camera points into the flange frame.
+    Outliers: the studentized leave-one-out test (F(3, dof - 3), family-wise false-alarm rate
+    ``outlier_alpha``), worst first, under the chosen correction. exclude_outliers: the returned
+    fit leaves them out (``with_all_samples`` keeps the other fit); else it keeps them
+    (``without_outliers``). The lab's 1 cm criterion never removes samples: when it fails and
+    ``enforce_criterion``, ``criterion_advice`` names the fewest samples whose removal would meet it.
+    leave_one_out: per-sample prediction errors from the hat matrix (one fit, no refits).
+    Returns a :class:`Calibration`; ``T_flange_cam`` maps corrected camera points into the flange.
     """
     if loss not in LOSSES:
         raise InputMismatch(f"loss must be one of {LOSSES}, got {loss!r}")
-    p, T, s, g = _validate(p_cam, T_base_flange, sigma, guess)
+    p, T, g = _validate(p_cam, T_base_flange, guess)
+    noise = _noise(p, sigma, confidence)
     warnings = dg.check_motion(T)
-    prob = Problem(p, T, s, g, loss, loss_scale)
+    prob = Problem(p, T, noise, g, loss, loss_scale, _models(correction), camera_sigma(p))
     n = len(p)
-    everything = prob.fit(np.arange(n))[0]
-    keep_min = max(MIN_SAMPLES + 2, (n + 1) // 2)
-    clear, cleaned = _clear_outliers(prob, everything, outlier_alpha, keep_min)
-    crit: list[int] = []
-    if enforce_criterion and not cleaned.passes and n >= MIN_SAMPLES + 3:
-        crit, cleaned = _criterion_outliers(cleaned, prob, max(1, n // 5))
-    outliers = clear + crit
-    chosen = cleaned if exclude_outliers else everything
-    if chosen is not everything:  # refit from the start, so that "before" is the guess or linear start
-        chosen = prob.fit(np.array(chosen.samples))[0]
-    loo = chosen.residuals_mm.copy()
-    if leave_one_out and len(chosen.samples) > MIN_SAMPLES + 1:
-        for i, f in zip(chosen.samples, _leave_one_out(prob, chosen.samples, chosen), strict=True):
-            loo[i] = f.residuals_mm[i]
-    if 3 * len(chosen.samples) - 9 <= 0:
-        warnings.append(
-            f"{len(chosen.samples)} samples leave no redundancy: the uncertainty is the modelled noise, "
-            "not measured; add samples"
+    idx = np.arange(n)
+    sel_all = prob.select(idx)
+    sel, kept, outliers = sel_all, idx, []
+    keep_min = max(MIN_SAMPLES + 3, (n + 1) // 2)
+    # the influence of sel_all and of the current sel, held with them (never keyed by id(): a freed
+    # selection's id is reused by the next one, whose samples differ)
+    inf_all: Influence | None = None
+    inf_sel: Influence | None = None
+    while len(kept) > keep_min:
+        inf_sel = influence(sel.solution)
+        inf_all = inf_sel if sel is sel_all else inf_all
+        pv = inf_sel.p_value
+        k = int(np.nanargmin(pv)) if np.isfinite(pv).any() else -1
+        if k < 0 or not pv[k] < outlier_alpha / len(kept):
+            break
+        outliers.append(int(kept[k]))
+        kept = np.delete(kept, k)
+        sel, inf_sel = prob.select(kept, start=sel.solution), None
+    everything = prob.explain(idx, sel_all)
+    cleaned = prob.explain(kept, sel) if outliers else everything
+    chosen, chosen_sel = (cleaned, sel) if exclude_outliers else (everything, sel_all)
+    chosen_idx = np.array(chosen.samples)
+    loo = chosen.residuals_mm
+    if leave_one_out:
+        loo = _loo_mm(
+            chosen_sel, chosen_idx, chosen.residuals_mm, inf_all if chosen_sel is sel_all else inf_sel
         )
-    verb = "excluded" if exclude_outliers else "kept (exclude_outliers=False)"
-    for kind, group in (
-        ("clear outlier(s) by robust statistics", clear),
-        ("the cause of the failed lab criterion", crit),
-    ):
-        if group:
-            names = ", ".join(f"{i} ({everything.residuals_mm[i]:.1f} mm)" for i in group)
-            noun, be = ("sample", "is") if len(group) == 1 else ("samples", "are")
-            warnings.append(f"{noun} {names} {be} {kind} and {'was' if len(group) == 1 else 'were'} {verb}")
+    ref_mm = np.full((n, 3), np.nan)
+    ref_mm[chosen_idx] = -1e3 * chosen_sel.reference_errors
+    advice: list[int] = []
+    if not chosen.passes and enforce_criterion and len(chosen_idx) >= MIN_SAMPLES + 3:
+        advice = criterion_advice(prob, chosen_sel, chosen_idx, max(1, min(len(chosen_idx) // 5, MAX_ADVICE)))
+    warnings += redundancy_warning(chosen, T)
+    warnings += noise_warning(chosen)
     if outliers:
+        verb = "excluded" if exclude_outliers else "kept (exclude_outliers=False)"
+        names = ", ".join(f"{i} ({everything.residuals_mm[i]:.1f} mm)" for i in outliers)
+        noun, be = ("sample", "is a") if len(outliers) == 1 else ("samples", "are")
+        warnings.append(
+            f"{noun} {names} {be} clear outlier{'s' * (len(outliers) > 1)} by the leave-one-out test "
+            f"under the {chosen.correction.model} model and {'was' if len(outliers) == 1 else 'were'} {verb}"
+        )
         warnings.append(
             f"per-axis spread with every sample {np.round(everything.spread_mm, 1).tolist()} mm, without "
             f"samples {outliers} {np.round(cleaned.spread_mm, 1).tolist()} mm"
         )
     if not chosen.passes:
-        worst = chosen.samples[int(np.argmax(loo[chosen.samples]))]
+        worst = chosen.samples[int(np.argmax(loo[chosen_idx]))]
+        tail = (
+            f"removing samples {advice} would meet it (advice only: nothing was removed)"
+            if advice else f"sample {worst} agrees least with the others ({loo[worst]:.1f} mm leave-one-out)"
+        )  # fmt: skip
         warnings.append(
             f"the lab criterion fails: per-axis spread {np.round(chosen.spread_mm, 1).tolist()} mm "
-            f"(limit {dg.LAB_SPREAD_LIMIT_MM:.0f} mm); sample {worst} agrees least with the others "
-            f"({loo[worst]:.1f} mm leave-one-out): re-record it or add poses"
+            f"(limit {dg.LAB_SPREAD_LIMIT_MM:.0f} mm); {tail}: re-record it or add poses"
         )
     return Calibration(
         **{k: getattr(chosen, k) for k in Fit.__dataclass_fields__},
         inliers=chosen.samples, outliers=outliers, leave_one_out_mm=loo, warnings=warnings,
         with_all_samples=everything if (outliers and exclude_outliers) else None,
         without_outliers=cleaned if (outliers and not exclude_outliers) else None,
-        p_cam=p, T_base_flange=T,
+        p_cam=p, T_base_flange=T, candidates=sel_all.candidates if not exclude_outliers else sel.candidates,
+        correction_reason=(sel if exclude_outliers else sel_all).reason, criterion_advice=advice,
+        parent_frame=parent_frame, child_frame=child_frame, guess_given=g is not None, reference_residuals_mm=ref_mm,
     )  # fmt: skip

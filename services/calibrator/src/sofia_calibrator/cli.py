@@ -10,6 +10,7 @@ import numpy as np
 from sofia_schemas.transforms import make_transform
 from sofia_schemas.zenoh_config import add_zenoh_args
 
+from .calibrate import CHILD_FRAME, PARENT_FRAME
 from .errors import InputMismatch
 
 GUESS_QUAT_TOL = 0.01  # a typed guess quaternion within 1 % of unit norm is normalised
@@ -32,24 +33,46 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     )
     p.add_argument("--guess", nargs=7, type=float, metavar=("X", "Y", "Z", "QX", "QY", "QZ", "QW"),
                    help="optional initial T_flange_cam (never required); quaternion x y z w")  # fmt: skip
-    p.add_argument("--loss", default="linear", choices=("linear", "huber", "cauchy"))
-    p.add_argument("--noise", default="depth", choices=("depth", "uniform"), help="noise model (weights)")
+    p.add_argument("--loss", default="linear", choices=("linear", "huber", "cauchy"),
+                   help="robust loss of the fit: linear = least squares (default linear)")  # fmt: skip
+    p.add_argument(
+        "--noise", default="auto", choices=("auto", "depth", "uniform"),
+        help="noise model, its level estimated from the data: auto = isotropic + the D435's (default)",
+    )  # fmt: skip
+    p.add_argument(
+        "--correction", default="auto", choices=("auto", "rigid", "depth_scale", "ray_scale"),
+        help="camera correction fitted with the transform: auto = chosen by an F-test (default)",
+    )  # fmt: skip
+    add_frame_args(p)
     p.add_argument("--keep-outliers", action="store_true", help="report the fit with every sample")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.add_argument("--yaml", metavar="OUT", help="also write the result as YAML")
     p.add_argument("--plot", metavar="OUT.png", help="write the dissipation plot")
     p.set_defaults(func=run_calibrate)
+    try:  # `sofia calibrate auto`: the arm service calibrates by itself (needs sofia-arm)
+        from sofia_arm.autocal_cli import register_auto
+    except ImportError:
+        pass
+    else:
+        register_auto(p)
 
     c = sub.add_parser("calibrator", help="the calibrator service")
     cs = c.add_subparsers(dest="calibrator_cmd", required=True, metavar="ACTION")
     s = cs.add_parser("serve", help="run the online calibrator service on Zenoh")
     s.add_argument("--state-dir", default="./var/calibrator", help="append-only sample log and saved results")
     s.add_argument("--from-clouds", action="store_true", help="also extract the blob from camera clouds")
-    s.add_argument("--tolerance-ms", type=float, default=50.0, help="pose/blob stamp tolerance")
+    s.add_argument("--tolerance-ms", type=float, default=50.0, help="pose/blob stamp gap, ms")
     s.add_argument("--min-samples", type=int, default=3, help="samples before the first solve")
     s.add_argument("--robot", default=None, help="robot id (default $SOFIA_ROBOT or panda)")
+    add_frame_args(s)
     add_zenoh_args(s)
     s.set_defaults(func=run_service)
+
+
+def add_frame_args(p: argparse.ArgumentParser) -> None:
+    """--parent-frame / --child-frame, defaulting to the lab's launch file."""
+    p.add_argument("--parent-frame", default=PARENT_FRAME, help=f"flange frame (default {PARENT_FRAME})")
+    p.add_argument("--child-frame", default=CHILD_FRAME, help=f"camera frame (default {CHILD_FRAME})")
 
 
 def load_samples(args: argparse.Namespace) -> tuple[np.ndarray, np.ndarray]:
@@ -91,8 +114,9 @@ def run_calibrate(args: argparse.Namespace) -> int:
             g[3:] /= norm
         guess = make_transform(g[:3], g[3:])
     cal = calibrate(
-        p_cam, T, guess=guess, sigma=args.noise, loss=args.loss, exclude_outliers=not args.keep_outliers
-    )
+        p_cam, T, guess=guess, sigma=args.noise, loss=args.loss, exclude_outliers=not args.keep_outliers,
+        correction=args.correction, parent_frame=args.parent_frame, child_frame=args.child_frame,
+    )  # fmt: skip
     msg = to_message(cal)
     if args.yaml:
         with open(args.yaml, "w") as f:

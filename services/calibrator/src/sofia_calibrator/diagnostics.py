@@ -11,6 +11,7 @@ from .errors import DegenerateMotion
 LAB_SPREAD_LIMIT_MM = 10.0
 MIN_ROTATION_DEG = 2.0
 WEAK_ROTATION_DEG = 10.0
+ONE_AXIS_RATIO = 0.3  # second rotation spread below this fraction of the first: one axis
 # Family-wise probability of calling a sample of a clean set a clear outlier.
 OUTLIER_ALPHA = 0.001
 
@@ -25,6 +26,11 @@ def map_to_base(T_base_flange: np.ndarray, T_flange_cam: np.ndarray, p_cam: np.n
     return np.einsum("nij,nj->ni", T_base_flange[:, :3, :3], p_flange) + T_base_flange[:, :3, 3]
 
 
+def fmt3(v: np.ndarray, digits: int = 1) -> str:
+    """A (3,) vector as "[a, b, c]" rounded to ``digits``."""
+    return "[" + ", ".join(f"{float(x):.{digits}f}" for x in v) + "]"
+
+
 def spread(p_base: np.ndarray) -> np.ndarray:
     """Per-axis max - min of (n, 3) points (the lab's criterion): (3,), same unit as the points."""
     return np.asarray(p_base.max(axis=0) - p_base.min(axis=0))
@@ -32,8 +38,9 @@ def spread(p_base: np.ndarray) -> np.ndarray:
 
 def dissipation(p_base: np.ndarray) -> float:
     """The lab's objective: sum over ordered pairs i != j of ||p_i - p_j||, metres."""
-    d = p_base[:, None, :] - p_base[None, :, :]
-    return float(np.sqrt(np.einsum("ijk,ijk->ij", d, d)).sum())
+    from scipy.spatial.distance import pdist
+
+    return float(2.0 * pdist(p_base).sum())
 
 
 def std_from_covariance(R_flange_cam: np.ndarray, cov: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -45,6 +52,15 @@ def std_from_covariance(R_flange_cam: np.ndarray, cov: np.ndarray) -> tuple[np.n
     std_rot = np.degrees(np.sqrt(np.clip(np.diag(cov_phi), 0.0, None)))
     std_t = 1e3 * np.sqrt(np.clip(np.diag(cov[3:6, 3:6]), 0.0, None))
     return std_t, std_rot
+
+
+def covariance6(R_flange_cam: np.ndarray, cov: np.ndarray) -> np.ndarray:
+    """(6, 6) covariance of T_flange_cam: (tx, ty, tz) metres, then (rx, ry, rz) radians about the
+    flange axes (left perturbation), from the solver's covariance of (theta_cam, t, ...)."""
+    A = np.zeros((6, cov.shape[0]))
+    A[:3, 3:6] = np.eye(3)
+    A[3:, :3] = R_flange_cam  # phi_flange = R theta_cam
+    return np.asarray(A @ cov @ A.T)
 
 
 def outlier_ratio(whitened: np.ndarray, reference: np.ndarray, alpha: float = OUTLIER_ALPHA) -> np.ndarray:
@@ -70,20 +86,25 @@ def check_motion(T_base_flange: np.ndarray) -> list[str]:
     """
     R = T_base_flange[:, :3, :3]
     rel = so3.log(np.einsum("ji,njk->nik", R[0], R[1:]))
-    s = np.degrees(np.linalg.svd(rel, compute_uv=False)) / np.sqrt(max(len(rel), 1))
-    s = np.pad(s, (0, 3 - len(s)))
+    ev, vecs = np.linalg.eigh(rel.T @ rel)  # singular values of rel, squared, ascending
+    s = np.degrees(np.sqrt(np.clip(ev[::-1], 0.0, None))) / np.sqrt(max(len(rel), 1))
     if s[0] < MIN_ROTATION_DEG:
         raise DegenerateMotion(
             f"the flange barely rotates between samples (largest rotation spread {s[0]:.2f} deg)",
             "translation-only motion cannot locate the camera; tilt the flange by 15-30 deg about "
             "two different axes while keeping the blob in view",
         )
-    if s[1] < MIN_ROTATION_DEG:
-        axis = np.linalg.svd(rel)[2][0]
+    if s[1] < MIN_ROTATION_DEG and s[1] < ONE_AXIS_RATIO * s[0]:
+        axis = vecs[:, 2]
         raise DegenerateMotion(
             f"all rotations are about one axis (flange axis {np.round(axis, 2).tolist()}, "
             f"spread about other axes {s[1]:.2f} deg)",
             "the camera offset along that axis is not observable; add poses tilted about another axis",
+        )
+    if s[1] < MIN_ROTATION_DEG:
+        raise DegenerateMotion(
+            f"the rotations are small about every axis (spread {fmt3(s, 2)} deg)",
+            "the camera offset is barely observable; tilt the flange by 15-30 deg about two different axes",
         )
     if s[1] < WEAK_ROTATION_DEG:
         return [

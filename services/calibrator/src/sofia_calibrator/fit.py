@@ -1,34 +1,47 @@
-"""A fit over a subset of the samples and what explains it (spread, dissipation, covariance)."""
+"""A fit over a subset of the samples (transform, camera correction, noise) and what explains it."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
+from scipy.special import stdtrit
+from sofia_schemas.messages.calibration import CameraCorrection
 from sofia_schemas.transforms import matrix_to_quat_xyzw, rpy_from_matrix
 
+from . import correction as cc
 from . import diagnostics as dg
-from .solver import Solution, linear_init, refine, solve
+from . import so3
+from .influence import inverse
+from .noise import NoiseModel
+from .solver import Solution, refine, solve
 
 
 @dataclass
 class Fit:
-    """One fit over a subset of the samples. ``T_flange_cam`` maps camera points into the flange frame."""
+    """One fit over a subset of the samples. ``T_flange_cam`` maps corrected camera points
+    (``correction.apply(p_cam)``) into the flange frame."""
 
     T_flange_cam: np.ndarray  # (4, 4), metres
     p_base: np.ndarray  # (3,) blob in the base frame, metres
     samples: list[int]  # indices of the samples used
-    mapped_base: np.ndarray  # (n_all, 3) every sample's blob mapped into the base frame, metres
-    mapped_start: np.ndarray  # (n_all, 3) the same through the starting point (guess or linear)
+    mapped_base: np.ndarray  # (n_all, 3) every sample's corrected blob mapped into the base frame, metres
+    mapped_start: np.ndarray  # (n_all, 3) the raw blob mapped through the guess (identity without one)
     residuals_mm: np.ndarray  # (n_all,) distance of each mapped blob to p_base, mm
     spread_mm: np.ndarray  # (3,) per-axis max - min over ``samples``, mm
     dissipation_before: float  # the lab's pairwise sum over ``samples`` at the start, metres
     dissipation_after: float
     std_translation_mm: np.ndarray  # (3,) flange axes
     std_rotation_deg: np.ndarray  # (3,) about the flange axes
-    covariance: np.ndarray  # (9, 9) of (theta_cam, t_flange_cam, p_base)
-    noise_scale: float  # a-posteriori factor on the nominal noise model (1 = as modelled)
+    covariance: np.ndarray  # (9 + k, 9 + k) of (theta_cam, t_flange_cam, p_base, beta), noise estimated
+    noise_scale: float  # fitted noise over what the camera model alone explains (1 = as modelled)
     n_iter: int
+    correction: CameraCorrection = field(default_factory=CameraCorrection)
+    covariance6: np.ndarray = field(default_factory=lambda: np.zeros((6, 6)))  # (t m, rot rad) flange axes
+    noise_mm: float = float("nan")  # estimated 1-sigma per camera axis, RMS over the samples, mm
+    camera_noise_mm: float = float("nan")  # the same of the camera model alone, mm
+    sigma: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))  # (n_all, 3) estimated noise, m
+    solution: Solution | None = None
 
     @property
     def passes(self) -> bool:
@@ -46,58 +59,149 @@ class Fit:
     def rpy(self) -> np.ndarray:
         return np.asarray(rpy_from_matrix(self.T_flange_cam[:3, :3]))
 
+    def map_to_base(self, p_cam: np.ndarray, T_base_flange: np.ndarray) -> np.ndarray:
+        """Measured blob/points into the base frame through the full chosen model.
+
+        p_cam: (n, 3) measured, camera optical frame, metres; T_base_flange: (n, 4, 4) or (4, 4).
+        Returns (n, 3) base frame, metres: T_base_flange T_flange_cam correction(p_cam).
+        """
+        p = self.correction.apply(np.asarray(p_cam, dtype=np.float64))
+        T = np.broadcast_to(np.asarray(T_base_flange, dtype=np.float64), (len(p), 4, 4))
+        return dg.map_to_base(T, self.T_flange_cam, p)
+
+
+@dataclass
+class Selection:
+    """The chosen solution of a subset, the candidates compared, why, and the noise estimated."""
+
+    solution: Solution
+    candidates: list[cc.Candidate]
+    reason: str
+    noise: NoiseModel
+    other_models9: np.ndarray = field(default_factory=lambda: np.zeros((9, 9)))  # weighted, of the others
+    weight: float = 1.0  # Akaike weight of the chosen model
+    reference_errors: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))  # (m, 3) rigid fit, m
+
 
 @dataclass
 class Problem:
-    p_cam: np.ndarray
-    T_base_flange: np.ndarray
-    sigma: np.ndarray
+    p_cam: np.ndarray  # (n, 3) measured, camera frame
+    T_base_flange: np.ndarray  # (n, 4, 4)
+    noise: NoiseModel
     guess: np.ndarray | None
     loss: str
     loss_scale: float
+    models: tuple[str, ...] = cc.MODELS  # the first is the reference (rigid)
+    camera: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))  # (n, 3) camera-model sigma
 
-    def fit(self, idx: np.ndarray, start: Solution | None = None) -> tuple[Fit, Solution]:
-        p, T, s = self.p_cam[idx], self.T_base_flange[idx], self.sigma[idx]
-        R_fl, t_fl = T[:, :3, :3], T[:, :3, 3]
-        if start is not None:
-            R0, t0 = start.R, start.t
-            sol = refine(p, R_fl, t_fl, s, R0, t0, start.p_base, self.loss, self.loss_scale)
-        elif self.guess is not None:
-            R0, t0 = self.guess[:3, :3], self.guess[:3, 3]
-            sol = solve(p, T, s, self.guess, self.loss, self.loss_scale)
-        else:
-            R0, t0, _ = linear_init(p, R_fl, t_fl, 1.0 / np.mean(s, axis=1) ** 2)
-            sol = solve(p, T, s, None, self.loss, self.loss_scale)
-        T0 = np.eye(4)
-        T0[:3, :3], T0[:3, 3] = R0, t0
-        return self._explain(idx, sol, T0), sol
+    def solve(self, idx: np.ndarray, model: str, sigma: np.ndarray, start: Solution | None) -> Solution:
+        """The ``model`` solution of samples ``idx``: warm from ``start``, else from every start."""
+        p, T = self.p_cam[idx], self.T_base_flange[idx]
+        if start is None:
+            return solve(p, T, sigma, self.guess, self.loss, self.loss_scale, model=model)
+        beta = start.beta if start.model == model else None
+        return refine(p, T[:, :3, :3], T[:, :3, 3], sigma, start.R, start.t, start.p_base, self.loss,
+                      self.loss_scale, model=model, beta=beta)  # fmt: skip
 
-    def _explain(self, idx: np.ndarray, sol: Solution, T_start: np.ndarray) -> Fit:
+    def select(self, idx: np.ndarray, start: Solution | None = None) -> Selection:
+        """Fit the models on samples ``idx`` with the noise level estimated from the data, and choose.
+
+        The reference (rigid) fit gives the residuals the noise level is estimated from; under that
+        noise every model's chi-square comes from one Gauss-Newton step from the reference optimum
+        (exact for a linear model; the corrections are linear in their unknowns), the F-test
+        (:func:`sofia_calibrator.correction.choose`) picks one, and only that one is refined.
+        """
+        m = len(idx)
+        sigma0 = self.noise.sigma(idx)
+        ref = self.solve(idx, self.models[0], sigma0, start)
+        noise = self.noise.estimated(ref.errors, idx, 3 * m - 9 - cc.N_EXTRA[self.models[0]])
+        sigma = noise.sigma(idx)
+        models = self.models if m >= cc.MIN_SAMPLES_FOR_SCALE else self.models[:1]
+        steps = [_gauss_newton_step(ref, self.p_cam[idx], sigma0, sigma, model) for model in models]
+        cands = [
+            cc.Candidate(
+                mo, st.chi2, 9 + len(st.beta), 3 * m, st.beta, st.beta_sigma if len(st.beta) else None
+            )
+            for mo, st in zip(models, steps, strict=True)
+        ]
+        chosen, reason = cc.choose(cands) if len(cands) > 1 else (cands[0], f"{cands[0].model} (as asked)")
+        k = cands.index(chosen)
+        dx, beta = steps[k].dx, steps[k].beta
+        p, T = self.p_cam[idx], self.T_base_flange[idx]
+        sol = refine(p, T[:, :3, :3], T[:, :3, 3], sigma, ref.R @ so3.exp(dx[:3]), ref.t + dx[3:6],
+                     ref.p_base + dx[6:9], self.loss, self.loss_scale, model=chosen.model, beta=beta)  # fmt: skip
+        chosen.chi2, chosen.beta = sol.cost, sol.beta
+        # model-averaged covariance (Buckland): the other models' spread, by Akaike weight
+        aic = np.array([c.aic for c in cands])
+        w = np.exp(-0.5 * (aic - aic.min()))
+        w /= w.sum()
+        extra = np.zeros((9, 9))
+        for wk, st, c in zip(w, steps, cands, strict=True):
+            if c is not chosen and wk > 1e-6:
+                d = st.dx - dx
+                extra += wk * (st.cov9 + np.outer(d, d))
+        return Selection(sol, cands, reason, noise, extra, float(w[k]), ref.errors)
+
+    def explain(self, idx: np.ndarray, sel: Selection) -> Fit:
+        """The :class:`Fit` of a selection over samples ``idx``."""
+        sol, noise = sel.solution, sel.noise
         T_fc = sol.T_flange_cam
-        mapped = dg.map_to_base(self.T_base_flange, T_fc, self.p_cam)
-        mapped_start = dg.map_to_base(self.T_base_flange, T_start, self.p_cam)
-        dof = 3 * len(idx) - 9
+        corr_p = cc.apply(sol.model, sol.beta, self.p_cam)
+        mapped = dg.map_to_base(self.T_base_flange, T_fc, corr_p)
+        T0 = np.eye(4) if self.guess is None else self.guess
+        mapped_start = dg.map_to_base(self.T_base_flange, T0, self.p_cam)
+        dof = 3 * len(idx) - 9 - len(sol.beta)
         scale2 = sol.cost / dof if dof > 0 else 1.0
-        cov = np.linalg.pinv(sol.JtJ) * scale2
+        cov = inverse(sol.JtJ) * scale2
+        cov[:9, :9] = sel.weight * cov[:9, :9] + sel.other_models9
+        cov *= t_inflation(dof)
         std_t, std_r = dg.std_from_covariance(sol.R, cov)
+        beta_sigma = np.sqrt(np.clip(np.diag(cov)[9:], 0.0, None)) if len(sol.beta) else None
+        sigma_all = noise.sigma() * np.sqrt(scale2)
+        noise_mm = float(1e3 * np.sqrt(np.mean(sigma_all[idx] ** 2)))
+        cam_mm = float(1e3 * np.sqrt(np.mean(self.camera[idx] ** 2)))
         return Fit(
             T_flange_cam=T_fc, p_base=sol.p_base, samples=[int(i) for i in idx], mapped_base=mapped,
             mapped_start=mapped_start, residuals_mm=1e3 * np.linalg.norm(mapped - sol.p_base, axis=1),
             spread_mm=1e3 * dg.spread(mapped[idx]), dissipation_before=dg.dissipation(mapped_start[idx]),
             dissipation_after=dg.dissipation(mapped[idx]), std_translation_mm=std_t,
-            std_rotation_deg=std_r, covariance=cov, noise_scale=float(np.sqrt(scale2)), n_iter=sol.n_iter,
+            std_rotation_deg=std_r, covariance=cov, noise_scale=noise_mm / max(cam_mm, 1e-9),
+            n_iter=sol.n_iter, correction=cc.message(sol.model, sol.beta, beta_sigma),
+            covariance6=dg.covariance6(sol.R, cov), noise_mm=noise_mm, camera_noise_mm=cam_mm,
+            sigma=sigma_all, solution=sol,
         )  # fmt: skip
 
-    def whitened(self, fit: Fit) -> np.ndarray:
-        """(n,) whitened residual norms of every sample under a fit."""
-        d = fit.mapped_base - fit.p_base  # base frame; rotate into the camera frame to whiten
-        R_base_cam = np.einsum("nij,jk->nik", self.T_base_flange[:, :3, :3], fit.T_flange_cam[:3, :3])
-        e = np.einsum("nji,nj->ni", R_base_cam, d) / self.sigma
-        return np.asarray(np.linalg.norm(e, axis=1))
+
+@dataclass
+class _Step:
+    chi2: float  # in units of the new noise
+    dx: np.ndarray  # (9,) step of (theta, t, p_base) from the reference
+    beta: np.ndarray  # (k,)
+    cov9: np.ndarray  # (9, 9) covariance of (theta, t, p_base), scaled by chi2 / dof
+    beta_sigma: np.ndarray  # (k,) 1-sigma of beta, scaled the same way
 
 
-def warm_start(fit: Fit) -> Solution:
-    """A :class:`Solution` to restart refinements from a fit."""
-    z = np.zeros(0)
-    T = fit.T_flange_cam
-    return Solution(T[:3, :3], T[:3, 3], fit.p_base, 0.0, 0, np.zeros((9, 9)), z, z)
+def t_inflation(dof: int) -> float:
+    """Factor on a covariance whose noise level was estimated with ``dof`` degrees of freedom, so
+    that its 1-sigma is the 68.3 % Student-t half-width (1 for unknown dof)."""
+    return float(stdtrit(dof, 0.8413447460685429) ** 2) if dof > 0 else 1.0
+
+
+def _gauss_newton_step(
+    ref: Solution, p_cam: np.ndarray, sigma_ref: np.ndarray, sigma: np.ndarray, model: str
+) -> _Step:
+    """``model`` after one Gauss-Newton step from the reference solution (fitted under the noise
+    ``sigma_ref``), under the noise ``sigma`` (m, 3) metres."""
+    assert ref.J is not None
+    m = len(p_cam)
+    r = (ref.errors / sigma).ravel()
+    J = ref.J.reshape(m, 3, -1)[:, :, :9] * (sigma_ref / sigma)[:, :, None]
+    G = cc.columns(model, p_cam) / sigma[:, :, None]
+    Ja = np.concatenate([J, -G], axis=2).reshape(3 * m, -1)
+    g = Ja.T @ r
+    C = inverse(Ja.T @ Ja)
+    dx = -C @ g
+    chi2 = float(r @ r + g @ dx)
+    dof = 3 * m - Ja.shape[1]
+    s2 = chi2 / dof if dof > 0 else 1.0
+    return _Step(chi2, dx[:9], dx[9:], C[:9, :9] * s2, np.sqrt(np.clip(np.diag(C)[9:] * s2, 0.0, None)))

@@ -1,42 +1,15 @@
-"""Franka Emika Panda forward kinematics from Franka's published modified (Craig) DH parameters.
-
-Each link: T_{i-1}_{i} = RotX(alpha_{i-1}) TransX(a_{i-1}) RotZ(theta_i) TransZ(d_i). The flange
-(``panda_link8``) is 0.107 m along joint 7's z axis.
-"""
+"""Franka Emika Panda forward kinematics: the project's one implementation lives in
+:mod:`sofia_schemas.kinematics` (shared with the arm service); here its errors are the calibrator's."""
 
 from __future__ import annotations
 
 import numpy as np
+from sofia_schemas.kinematics import PANDA_DH, Q_MAX, Q_MIN, KinematicsError
+from sofia_schemas.kinematics import panda_fk as _panda_fk
 
 from .errors import InputMismatch
 
-# (a, d, alpha) per joint, metres and radians (frankaemika.github.io/docs/control_parameters.html)
-PANDA_DH = np.array([
-    [0.0, 0.333, 0.0],
-    [0.0, 0.0, -np.pi / 2],
-    [0.0, 0.316, np.pi / 2],
-    [0.0825, 0.0, np.pi / 2],
-    [-0.0825, 0.384, -np.pi / 2],
-    [0.0, 0.0, np.pi / 2],
-    [0.088, 0.0, np.pi / 2],
-    [0.0, 0.107, 0.0],  # flange, fixed
-])  # fmt: skip
-# Joint limits (rad) from the same page.
-Q_MIN = np.array([-2.8973, -1.7628, -2.8973, -3.0718, -2.8973, -0.0175, -2.8973])
-Q_MAX = np.array([2.8973, 1.7628, 2.8973, -0.0698, 2.8973, 3.7525, 2.8973])
-
-
-def _mdh(a: float, d: float, alpha: float, theta: np.ndarray) -> np.ndarray:
-    """(n, 4, 4) modified-DH link transforms for joint angles theta (n,)."""
-    n = len(theta)
-    ct, st = np.cos(theta), np.sin(theta)
-    ca, sa = np.cos(alpha), np.sin(alpha)
-    T = np.zeros((n, 4, 4))
-    T[:, 0, 0], T[:, 0, 1], T[:, 0, 3] = ct, -st, a
-    T[:, 1, 0], T[:, 1, 1], T[:, 1, 2], T[:, 1, 3] = st * ca, ct * ca, -sa, -sa * d
-    T[:, 2, 0], T[:, 2, 1], T[:, 2, 2], T[:, 2, 3] = st * sa, ct * sa, ca, ca * d
-    T[:, 3, 3] = 1.0
-    return T
+__all__ = ["PANDA_DH", "Q_MAX", "Q_MIN", "panda_fk"]
 
 
 def panda_fk(q: np.ndarray, check_limits: bool = True) -> np.ndarray:
@@ -45,25 +18,7 @@ def panda_fk(q: np.ndarray, check_limits: bool = True) -> np.ndarray:
     Raises InputMismatch for a wrong shape, non-finite values or (``check_limits``) a joint
     outside Franka's limits.
     """
-    q = np.asarray(q, dtype=np.float64)
-    single = q.ndim == 1
-    q = np.atleast_2d(q)
-    if q.ndim != 2 or q.shape[1] != 7:
-        raise InputMismatch(f"Panda joint positions must have shape (n, 7) or (7,), got {q.shape}")
-    if not np.all(np.isfinite(q)):
-        raise InputMismatch(
-            f"joint positions have non-finite values in rows {np.flatnonzero(~np.isfinite(q).all(1)).tolist()}"
-        )
-    if check_limits:
-        bad = np.argwhere((q < Q_MIN - 1e-6) | (q > Q_MAX + 1e-6))
-        if bad.size:
-            i, j = bad[0]
-            raise InputMismatch(
-                f"joint {j + 1} of sample {i} is {q[i, j]:.4f} rad, outside the Panda's limits "
-                f"[{Q_MIN[j]}, {Q_MAX[j]}] (values must be radians)"
-            )
-    T = np.tile(np.eye(4), (len(q), 1, 1))
-    thetas = np.concatenate([q, np.zeros((len(q), 1))], axis=1)
-    for k, (a, d, alpha) in enumerate(PANDA_DH):
-        T = T @ _mdh(a, d, alpha, thetas[:, k])
-    return T[0] if single else T
+    try:
+        return _panda_fk(q, check_limits)
+    except KinematicsError as e:
+        raise InputMismatch(str(e)) from None

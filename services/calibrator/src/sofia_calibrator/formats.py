@@ -8,13 +8,11 @@ from __future__ import annotations
 
 import numpy as np
 from sofia_schemas.messages import CalibrationResult, now_ns
-from sofia_schemas.messages.calibration import CalibrationSummary
+from sofia_schemas.messages.calibration import CalibrationSummary, CorrectionCandidate
 
-from .calibrate import Calibration
+from .calibrate import CHILD_FRAME, PARENT_FRAME, Calibration
+from .correction import describe
 from .fit import Fit
-
-PARENT_FRAME = "panda_link8"
-CHILD_FRAME = "panda_camera"
 
 
 def _f(v: float) -> str:
@@ -60,14 +58,32 @@ def _summary(fit: Fit) -> CalibrationSummary:
     )  # fmt: skip
 
 
+def _candidates(cal: Calibration) -> list[CorrectionCandidate]:
+    out = []
+    for c in cal.candidates:
+        sig = None if c.beta_sigma is None else float(c.beta_sigma[0])
+        out.append(CorrectionCandidate(
+            model=c.model, n_params=c.n_params, chi2=c.chi2, aic=c.aic, p_value=c.p_value,  # type: ignore[arg-type]
+            depth_scale=1.0 + float(c.beta[0]) if len(c.beta) else 1.0, depth_scale_sigma=sig,
+            chosen=c.model == cal.correction.model,
+        ))  # fmt: skip
+    return out
+
+
 def to_message(
-    cal: Calibration, stamp_ns: int | None = None, sample_ids: list[int] | None = None
+    cal: Calibration,
+    stamp_ns: int | None = None,
+    sample_ids: list[int] | None = None,
+    parent_frame: str | None = None,
+    child_frame: str | None = None,
 ) -> CalibrationResult:
-    """The :class:`CalibrationResult` bus message of a calibration."""
+    """The :class:`CalibrationResult` bus message of a calibration (frames: the calibration's
+    unless given)."""
     T = cal.T_flange_cam
+    parent, child = parent_frame or cal.parent_frame, child_frame or cal.child_frame
     return CalibrationResult(
         stamp_ns=now_ns() if stamp_ns is None else stamp_ns,
-        parent_frame=PARENT_FRAME, child_frame=CHILD_FRAME, matrix=T.tolist(),
+        parent_frame=parent, child_frame=child, matrix=T.tolist(),
         translation=_vec(cal.translation),
         quaternion_xyzw=tuple(float(v) for v in cal.quaternion_xyzw),  # type: ignore[arg-type]
         rpy=_vec(cal.rpy), target_base=_vec(cal.p_base), spread_mm=_vec(cal.spread_mm),
@@ -75,11 +91,15 @@ def to_message(
         residuals_mm=cal.residuals_mm.tolist(), std_translation_mm=_vec(cal.std_translation_mm),
         std_rotation_deg=_vec(cal.std_rotation_deg), dissipation_before=cal.dissipation_before,
         dissipation_after=cal.dissipation_after, warnings=cal.warnings,
-        ros1_static_transform=ros1_static_transform(T), ros2_static_transform=ros2_static_transform(T),
+        ros1_static_transform=ros1_static_transform(T, parent, child),
+        ros2_static_transform=ros2_static_transform(T, parent, child),
         leave_one_out_mm=cal.leave_one_out_mm.tolist(), noise_scale=cal.noise_scale,
         sample_ids=sample_ids or [],
         with_all_samples=_summary(cal.with_all_samples) if cal.with_all_samples else None,
         without_outliers=_summary(cal.without_outliers) if cal.without_outliers else None,
+        camera_correction=cal.correction, correction_models=_candidates(cal),
+        correction_reason=cal.correction_reason, noise_mm=cal.noise_mm if np.isfinite(cal.noise_mm) else None,
+        covariance=cal.covariance6.tolist(), criterion_advice=cal.criterion_advice,
     )  # fmt: skip
 
 
@@ -90,7 +110,9 @@ def to_yaml(result: CalibrationResult) -> str:
         if isinstance(v, list | tuple):
             return "[" + ", ".join(fl(x) for x in v) + "]"
         if isinstance(v, float):
-            return repr(round(v, 9))
+            text = f"{v:.9g}" if abs(v) < 1e-4 and v != 0.0 else repr(round(v, 9))
+            mant, e, exp = text.partition("e")
+            return f"{mant}{'' if '.' in mant else '.0'}e{exp}" if e else text  # YAML 1.1 floats need a dot
         return str(v)
 
     lines = [
@@ -107,6 +129,19 @@ def to_yaml(result: CalibrationResult) -> str:
         f"passes: {str(result.passes).lower()}",
         f"std_translation_mm: {fl(result.std_translation_mm)}",
         f"std_rotation_deg: {fl(result.std_rotation_deg)}",
+        "# camera_correction: apply to measured camera points before T_flange_cam",
+        f"# {describe(result.camera_correction)}",
+        "camera_correction:",
+        f"  model: {result.camera_correction.model}",
+        f"  depth_scale: {fl(result.camera_correction.depth_scale)}",
+        f"  depth_scale_sigma: {fl(result.camera_correction.depth_scale_sigma) if result.camera_correction.depth_scale_sigma is not None else 'null'}",
+        f"  depth_offset_m: {fl(result.camera_correction.depth_offset_m)}",
+        f"correction_reason: {result.correction_reason!r}",
+        f"noise_mm: {fl(result.noise_mm) if result.noise_mm is not None else 'null'}  # estimated 1-sigma per camera axis",
+        "# covariance of T_flange_cam: tx ty tz (m, flange frame), rx ry rz (rad, about the flange axes)",
+        "covariance:" if result.covariance else "covariance: []",
+        *[f"  - {fl(row)}" for row in result.covariance],
+        f"criterion_advice: {fl(result.criterion_advice)}",
         f"inliers: {fl(result.inliers)}",
         f"outliers: {fl(result.outliers)}",
         f"ros1_static_transform: '{result.ros1_static_transform}'",

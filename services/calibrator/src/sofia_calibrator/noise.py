@@ -1,10 +1,14 @@
 """Noise model of a blob position measured by a D435-like RGB-D camera.
 
 Depth noise grows with depth squared (stereo disparity error), lateral noise linearly with depth
-(sub-pixel error of the blob centre). Both are expressed per camera-frame axis.
+(sub-pixel error of the blob centre). Both are expressed per camera-frame axis. Real samples also carry robot positioning and blob
+extraction errors, roughly isotropic: :class:`NoiseModel` adds such a component, estimated from the
+residuals.
 """
 
 from __future__ import annotations
+
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -13,6 +17,7 @@ import numpy as np
 DEPTH_COEFF_PER_M = 0.0042
 LATERAL_COEFF = 0.3 / 615.0
 FLOOR_M = 1e-4
+ISOTROPIC_PRIOR_M = 1e-3  # starting value of the isotropic component before it is estimated
 
 
 def camera_sigma(
@@ -34,3 +39,59 @@ def camera_sigma(
 def sample_noise(p_cam: np.ndarray, rng: np.random.Generator, scale: float = 1.0) -> np.ndarray:
     """(n, 3) Gaussian noise drawn from :func:`camera_sigma` (times ``scale``), metres."""
     return rng.standard_normal(p_cam.shape) * camera_sigma(p_cam) * scale
+
+
+def isotropic_component(errors: np.ndarray, camera: np.ndarray, dof: int, iterations: int = 30) -> float:
+    """The isotropic noise s0 (metres) that, added to the camera's own noise, explains the residuals.
+
+    errors: (n, 3) residuals, camera frame, metres; camera: (n, 3) the camera model's 1-sigma.
+    Solves sum e^2 / (s0^2 + c^2) = dof (the residual chi-square equals its expectation, a
+    REML-type moment equation) for s0 >= 0 by Newton's method on v = s0^2 (f is convex and
+    decreasing, so Newton from v = 0 converges monotonically). Returns 0 when the camera model
+    alone explains the residuals, and NaN when ``dof <= 0``.
+    """
+    if dof <= 0:
+        return float("nan")
+    e2, c2 = errors.ravel() ** 2, camera.ravel() ** 2
+    v = 0.0
+    for _ in range(iterations):
+        w = 1.0 / (v + c2)
+        f = float(e2 @ w) - dof
+        if f <= 1e-9 * dof:
+            break
+        v += f / float(e2 @ (w * w))
+    return float(np.sqrt(v))
+
+
+@dataclass(frozen=True)
+class NoiseModel:
+    """Per-sample, per-axis 1-sigma of the blob position, with one level estimated from the data.
+
+    base: (n, 3) metres, the known part (the camera model, or the user's sigma). ``additive``:
+    sigma^2 = level^2 + base^2 (level: an isotropic component in metres: robot positioning, blob
+    extraction); else sigma = level * base (level: a factor on the user's noise model).
+    """
+
+    base: np.ndarray
+    additive: bool
+    level: float
+
+    def sigma(self, idx: np.ndarray | None = None) -> np.ndarray:
+        """(m, 3) metres for the samples ``idx`` (all when None)."""
+        b = self.base if idx is None else self.base[idx]
+        return np.sqrt(self.level**2 + b**2) if self.additive else self.level * b
+
+    def estimated(self, errors: np.ndarray, idx: np.ndarray, dof: int) -> NoiseModel:
+        """The model with its level estimated from (m, 3) residuals of the samples ``idx`` (metres)
+        of a fit with ``dof`` degrees of freedom; unchanged when dof <= 0."""
+        if dof <= 0:
+            return self
+        if self.additive:
+            level = isotropic_component(errors, self.base[idx], dof)
+        else:
+            level = float(np.sqrt(np.sum((errors / self.base[idx]) ** 2) / dof))
+        return replace(self, level=max(level, 0.0))
+
+    def rms_mm(self, idx: np.ndarray) -> float:
+        """RMS 1-sigma per axis over the samples ``idx``, mm."""
+        return float(1e3 * np.sqrt(np.mean(self.sigma(idx) ** 2)))

@@ -15,15 +15,16 @@ from sofia_schemas.messages.calibration import (
 )
 from sofia_schemas.transforms import make_transform, matrix_to_quat_xyzw
 
-from .calibrate import calibrate
-from .errors import InputMismatch
+from .calibrate import CHILD_FRAME, PARENT_FRAME, calibrate
+from .errors import CalibrationError
 from .formats import to_message
-from .noise import camera_sigma
 from .pairing import NotPaired, PairingOptions, PoseBuffer
 from .store import SampleStore
 
 log = logging.getLogger("sofia.calibrator")
 PENDING_TIMEOUT_S = 2.0
+PENDING_MAX = 1000  # blobs waiting for their poses; beyond, the oldest is dropped (and counted)
+MIN_CONFIDENCE = 0.05  # a blob's confidence below this weighs as this (0, which a sample may carry, too)
 
 
 @dataclass
@@ -33,17 +34,24 @@ class Calibrator:
     store: SampleStore
     pairing: PairingOptions = field(default_factory=PairingOptions)
     min_samples: int = 3
+    parent_frame: str = PARENT_FRAME  # the frames the published T_flange_cam names
+    child_frame: str = CHILD_FRAME
     poses: PoseBuffer = field(default_factory=PoseBuffer)
     pending: list[tuple[int, np.ndarray, float, float]] = field(default_factory=list)  # stamp, p, conf, t
     result: CalibrationResult | None = None
     options: CalibrationSolveOptions = field(default_factory=CalibrationSolveOptions)
     last_error: str = ""
+    refused: int = 0  # paired samples refused: implausible, or the log could not store them
+    dropped: int = 0  # blobs dropped from a full pending list
 
     def on_pose(self, payload: bytes) -> None:
         pose = rosmsg.decode_flange_pose(payload)
         self.poses.add(pose.stamp_ns, pose.matrix())
 
     def on_blob(self, stamp_ns: int, p_cam: np.ndarray, confidence: float) -> None:
+        if len(self.pending) >= PENDING_MAX:
+            del self.pending[0]
+            self.dropped += 1
         self.pending.append((stamp_ns, p_cam, confidence, time.monotonic()))
 
     def pair_pending(self) -> list[CalibrationSample]:
@@ -60,24 +68,31 @@ class Calibrator:
             except NotPaired as e:
                 log.info("sample skipped: %s", e)
                 continue
-            added.append(self.store.add(_sample(stamp_ns, p_cam, T, conf)))
+            try:
+                added.append(self.store.add(make_sample(stamp_ns, p_cam, T, conf)))
+            except CalibrationError as e:  # implausible, or not durable: not stored, never acknowledged
+                self.refused += 1
+                log.warning("sample of blob %d refused: %s", stamp_ns, e)
+                continue
             log.info("sample %d added (%d samples)", added[-1].sample_id, len(self.store.samples))
         self.pending = keep
         return added
 
     def solve(self, options: CalibrationSolveOptions | None = None) -> CalibrationResult:
+        """``calibrate()`` of the stored samples as ``sofia calibrate`` runs it: noise model, camera
+        correction, loss and outliers from ``options`` (default: the service's), a less confident blob
+        weighing less."""
         opts = options or self.options
         p, T, ids = self.store.arrays()
         guess = (
             None if opts.guess is None else make_transform(np.array(opts.guess[:3]), np.array(opts.guess[3:]))
         )
-        if opts.noise not in ("depth", "uniform"):
-            raise InputMismatch(f"noise must be 'depth' or 'uniform', got {opts.noise!r}")
-        sigma = camera_sigma(p) if opts.noise == "depth" else np.full_like(p, 1e-3)
-        conf = np.array([s.confidence for s in self.store.ordered()])
-        sigma = sigma / np.clip(conf, 0.05, 1.0)[:, None]  # a less confident blob weighs less
-        cal = calibrate(p, T, guess=guess, sigma=sigma, loss=opts.loss, exclude_outliers=opts.exclude_outliers,
-                        leave_one_out=len(p) <= 60)  # fmt: skip
+        conf = np.clip([s.confidence for s in self.store.ordered()], MIN_CONFIDENCE, 1.0)
+        cal = calibrate(
+            p, T, guess=guess, sigma=opts.noise, confidence=conf, loss=opts.loss,  # type: ignore[arg-type]
+            exclude_outliers=opts.exclude_outliers, correction=opts.correction,
+            parent_frame=self.parent_frame, child_frame=self.child_frame,
+        )  # fmt: skip
         self.result = to_message(cal, now_ns(), ids)
         self.result = self.result.model_copy(
             update={"inliers": [ids[i] for i in cal.inliers], "outliers": [ids[i] for i in cal.outliers]}
@@ -85,7 +100,10 @@ class Calibrator:
         return self.result
 
 
-def _sample(stamp_ns: int, p_cam: np.ndarray, T: np.ndarray, confidence: float) -> CalibrationSample:
+def make_sample(
+    stamp_ns: int, p_cam: np.ndarray, T: np.ndarray, confidence: float = 1.0
+) -> CalibrationSample:
+    """A sample from a blob ``p_cam`` (3,) (camera optical frame, metres) and ``T_base_flange`` (4, 4)."""
     q = matrix_to_quat_xyzw(T[:3, :3])
     return CalibrationSample(
         stamp_ns=stamp_ns, p_cam=tuple(map(float, p_cam)), translation=tuple(map(float, T[:3, 3])),  # type: ignore[arg-type]

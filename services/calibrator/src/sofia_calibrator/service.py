@@ -1,14 +1,16 @@
-"""``sofia calibrator``: accumulates blob/flange-pose samples online, re-solves after each new one,
-publishes the result, and answers queries (result, add, remove, reset, solve, save, samples).
+"""``sofia calibrator``: accumulates blob/flange-pose samples online, re-solves once a burst of new
+ones is over, publishes the result, and answers queries (result, add, remove, reset, solve, save,
+samples).
 
-Zenoh callbacks only put events on a queue; one worker thread pairs, stores, solves and replies.
+Zenoh callbacks only hand data to the :class:`Inbox`; one worker thread pairs, stores, solves and
+replies.
 """
 
 from __future__ import annotations
 
 import argparse
 import logging
-import queue
+import time
 from pathlib import Path
 from typing import Any
 
@@ -16,6 +18,7 @@ import numpy as np
 import zenoh
 from sofia_schemas import pointcloud, rosmsg
 from sofia_schemas.keys import ENCODING_JSON, Keys, default_robot
+from sofia_schemas.limits import PayloadTooLarge, check_payload, error_text
 from sofia_schemas.messages import ServiceStatus, now_ns
 from sofia_schemas.messages.calibration import (
     CalibrationFiles,
@@ -25,7 +28,6 @@ from sofia_schemas.messages.calibration import (
     CalibrationSolveOptions,
 )
 from sofia_schemas.service import (
-    LatestSlot,
     StatusEndpoint,
     StopFlag,
     query_payload,
@@ -37,71 +39,110 @@ from sofia_schemas.zenoh_config import ZenohOptions, zenoh_config
 
 from .errors import InputMismatch
 from .formats import to_yaml
+from .inbox import Inbox
 from .online import Calibrator
 from .pairing import PairingOptions
+from .sample_errors import CalibratorBusy
 from .store import SampleStore
 
 log = logging.getLogger("sofia.calibrator")
 OPS = ("result", "add", "remove", "reset", "solve", "save", "samples")
-EVENTS_MAX = 1000  # poses, blobs and queries waiting for the worker
+EVENTS_MAX = 1000  # poses and blobs waiting for the worker
+QUERIES_MAX = 100  # queries waiting for the worker; beyond, they are answered "busy, retry" at once
 CLOUDS_MAX = 8  # camera clouds waiting for blob extraction (a burst of poses; ~40 MB at 640x480)
 STATUS_PERIOD_S = 1.0
+IDLE_WAKE_S = 0.1  # with nothing to do the worker still wakes, to pair blobs whose poses never came
+QUIET_S = 0.05  # samples changed: solve once nothing more has arrived for this long ...
+SOLVE_DELAY_MAX_S = 1.0  # ... or once the first unsolved change is this old
+SETTLING_OPS = ("result", "save")  # queries answered with the result of the samples there are now
 
 
 class Service:
     def __init__(self, cal: Calibrator, session: zenoh.Session, keys: Keys, from_clouds: bool) -> None:
         self.cal, self.session, self.keys, self.from_clouds = cal, session, keys, from_clouds
-        self.events: queue.Queue[tuple[str, Any]] = queue.Queue(maxsize=EVENTS_MAX)
-        self.clouds: LatestSlot[bytes] = LatestSlot(CLOUDS_MAX)  # ~5 MB each: only the newest wait
-        self.dropped = 0
+        self.inbox = Inbox(EVENTS_MAX, CLOUDS_MAX, QUERIES_MAX)
+        self.solved_generation = -1  # the store generation of the current result (or failed solve)
         self.pub = session.declare_publisher(keys.calibration_result)
-
-    def put(self, kind: str, item: Any) -> None:
-        try:
-            self.events.put_nowait((kind, item))
-        except queue.Full:
-            self.dropped += 1
 
     def declare(self) -> list[Any]:
         subs: list[Any] = [
-            self.session.declare_subscriber(
-                self.keys.flange_pose, lambda s: self.put("pose", s.payload.to_bytes())
-            ),
-            self.session.declare_subscriber(self.keys.blob, lambda s: self.put("blob", s.payload.to_bytes())),
+            self.session.declare_subscriber(self.keys.flange_pose, self._on_put("pose")),
+            self.session.declare_subscriber(self.keys.blob, self._on_put("blob")),
         ]
         if self.from_clouds:
-            subs.append(self.session.declare_subscriber(self.keys.camera_points,
-                                                        lambda s: self.clouds.put(s.payload.to_bytes())))  # fmt: skip
+            subs.append(self.session.declare_subscriber(self.keys.camera_points, self._on_put("cloud")))
         for op in OPS:
             subs.append(self.session.declare_queryable(self.keys.calibrator_op(op), self._on_query(op)))
         return subs
 
     def status(self) -> ServiceStatus:
         """Runs on Zenoh's thread for status queries: reads only."""
-        r, store = self.cal.result, self.cal.store
+        r, store, dropped = self.cal.result, self.cal.store, self.inbox.dropped
+        problems = store.problems()
+        if problems:
+            state, detail = "degraded", "; ".join(problems)
+        else:
+            state = "ok" if r is None or r.passes else "degraded"
+            detail = (
+                self.cal.last_error if r is None else ("passes" if r.passes else "fails the lab criterion")
+            )
         return ServiceStatus(
-            service="calibrator", stamp_ns=now_ns(), state="ok" if r is None or r.passes else "degraded",
-            detail=self.cal.last_error if r is None else ("passes" if r.passes else "fails the lab criterion"),
+            service="calibrator", stamp_ns=now_ns(), state=state, detail=detail,  # type: ignore[arg-type]
             counters={"samples": len(store.samples), "pending": len(self.cal.pending),
-                      "dropped": self.dropped + self.clouds.dropped},
+                      "dropped": sum(dropped.values()) + self.cal.dropped,
+                      "dropped_blobs": dropped["blob"] + self.cal.dropped,
+                      "dropped_poses": dropped["pose"], "dropped_clouds": dropped["cloud"],
+                      "dropped_queries": self.inbox.busy, "refused_samples": self.cal.refused,
+                      **store.counters()},
+            info={"samples_consistent": not store.suspect(),
+                  "sample_log": str(store.path)},
         )  # fmt: skip
+
+    def _on_put(self, kind: str) -> Any:
+        def callback(sample: zenoh.Sample) -> None:  # Zenoh's thread: check the size, hand over
+            try:
+                check_payload(str(sample.key_expr), sample.payload)
+            except PayloadTooLarge as e:
+                self.inbox.dropped[kind] += 1
+                log.warning("%s dropped: %s", kind, error_text(e))
+                return
+            if kind == "cloud":
+                self.inbox.put_cloud(sample.payload.to_bytes())
+            else:
+                self.inbox.put_event(kind, sample.payload.to_bytes())
+
+        return callback
 
     def _on_query(self, op: str) -> Any:
         def callback(query: zenoh.Query) -> None:
-            self.put("query", (op, query))
+            waiting = self.inbox.put_query(op, query)
+            if waiting:  # answered here, on Zenoh's thread: never silence
+                reply_error(query, CalibratorBusy(waiting))
 
         return callback
 
     def run(self, stop: StopFlag) -> None:
+        """Take everything pending, apply it, answer the queries; solve once the burst is over."""
+        first_unsolved = 0.0
         while not stop.is_set():
-            try:
-                kind, item = self.events.get(timeout=0.05)
-            except queue.Empty:
-                cloud = self.clouds.take(timeout=0.15) if self.from_clouds else None
-                kind, item = ("cloud", cloud) if cloud is not None else ("tick", None)
-            if self.from_clouds and kind != "cloud" and (cloud := self.clouds.take(timeout=0)) is not None:
-                self.step("cloud", cloud)  # clouds are served between events, never starved by poses
-            self.step(kind, item)
+            unsolved = self.solved_generation != self.cal.store.generation
+            batch = self.inbox.take(QUIET_S if unsolved else IDLE_WAKE_S)
+            for kind, payload in batch.events:
+                self.step(kind, payload)
+            for cloud in batch.clouds:
+                self.step("cloud", cloud)
+            if self.cal.pending:
+                self.step("pair", None)
+            for op, query in batch.queries:
+                self.step("query", (op, query))
+            if self.solved_generation == self.cal.store.generation:
+                first_unsolved = 0.0
+                continue
+            now = time.monotonic()
+            first_unsolved = first_unsolved or now
+            if not batch or now - first_unsolved >= SOLVE_DELAY_MAX_S:
+                self.resolve_and_publish()
+                first_unsolved = 0.0
 
     def step(self, kind: str, item: Any) -> None:
         try:
@@ -110,8 +151,6 @@ class Service:
             log.warning("%s dropped: %s: %s", kind, type(e).__name__, e)
             if kind == "query":  # every op replies last, so a failed op has not replied yet
                 reply_error(item[1], e)
-        if kind in ("pose", "blob", "cloud", "tick") and self.cal.pending and self.cal.pair_pending():
-            self.resolve_and_publish()
 
     def handle(self, kind: str, item: Any) -> None:
         if kind == "pose":
@@ -129,13 +168,14 @@ class Service:
             shape = (cloud.height, cloud.width, 3)
             blob = find_blob(cloud.xyz().reshape(shape), rgb.reshape(shape))
             self.cal.on_blob(cloud.stamp_ns, blob.p_cam, blob.confidence)
+        elif kind == "pair":
+            self.cal.pair_pending()
         elif kind == "query":
             self.answer(*item)
-        elif kind == "resolve":
-            self.resolve_and_publish()
 
     def resolve_and_publish(self) -> None:
         """Solve with the samples there are now; a result of other samples is never kept."""
+        self.solved_generation = self.cal.store.generation
         n = len(self.cal.store.samples)
         if n < self.cal.min_samples:
             self.cal.result = None
@@ -149,8 +189,9 @@ class Service:
             log.warning("not solved with %d samples: %s", n, self.cal.last_error)
             return
         self.pub.put(result.model_dump_json(), encoding=ENCODING_JSON)
-        log.info("solved with %d samples: spread %s mm, %s", n, np.round(result.spread_mm, 1).tolist(),
-                 "pass" if result.passes else "FAIL")  # fmt: skip
+        log.info("solved with %d samples: spread %s mm, %s; %s; noise %s mm", n,
+                 np.round(result.spread_mm, 1).tolist(), "pass" if result.passes else "FAIL",
+                 result.camera_correction.model, result.noise_mm and round(result.noise_mm, 2))  # fmt: skip
 
     def samples_reply(self, query: zenoh.Query) -> None:
         reply_json(query, CalibrationSamples(samples=self.cal.store.ordered()))
@@ -158,6 +199,8 @@ class Service:
     def answer(self, op: str, query: zenoh.Query) -> None:
         payload = query_payload(query)
         store = self.cal.store
+        if op in SETTLING_OPS and self.solved_generation != store.generation:
+            self.resolve_and_publish()
         if op == "result":
             if self.cal.result is None:
                 raise InputMismatch(
@@ -170,12 +213,9 @@ class Service:
             s = store.add(CalibrationSample.model_validate_json(payload))
             log.info("sample %d added by query", s.sample_id)
             reply_json(query, CalibrationSamples(samples=[s]))
-            self.put("resolve", None)
         elif op == "remove":
-            for i in CalibrationRemove.model_validate_json(payload).sample_ids:
-                store.remove(i)
+            store.remove(CalibrationRemove.model_validate_json(payload).sample_ids)
             self.samples_reply(query)
-            self.put("resolve", None)
         elif op == "reset":
             store.reset()
             self.cal.result = None
@@ -184,6 +224,7 @@ class Service:
         elif op == "solve":
             opts = CalibrationSolveOptions.model_validate_json(payload) if payload.strip() else None
             result = self.cal.solve(opts)
+            self.solved_generation = store.generation
             if opts is not None:
                 self.cal.options = opts
             reply_json(query, result)
@@ -204,14 +245,14 @@ def main(args: argparse.Namespace) -> int:
     keys = Keys(args.robot or default_robot())
     store = SampleStore(args.state_dir)
     cal = Calibrator(
-        store, PairingOptions(tolerance_ns=int(args.tolerance_ms * 1e6)), max(args.min_samples, 3)
-    )
+        store, PairingOptions(tolerance_ns=int(args.tolerance_ms * 1e6)), max(args.min_samples, 3),
+        parent_frame=args.parent_frame, child_frame=args.child_frame,
+    )  # fmt: skip
     stop = StopFlag()
     with zenoh.open(zenoh_config(ZenohOptions.from_args(args))) as session:
         svc = Service(cal, session, keys, args.from_clouds)
         decls = svc.declare()
-        worker = run_worker("calibrator", lambda: svc.run(stop))
-        svc.put("resolve", None)  # a restarted calibrator publishes the result of its samples
+        worker = run_worker("calibrator", lambda: svc.run(stop))  # first solves the resumed samples
         log.info(
             "calibrator ready on %s (%d samples, state in %s)",
             keys.calibrator,

@@ -18,7 +18,7 @@ class Problem:
     p_base: np.ndarray  # (3,)
     T_base_flange: np.ndarray  # (n, 4, 4)
     p_cam_true: np.ndarray  # (n, 3)
-    p_cam: np.ndarray  # (n, 3)
+    p_cam: np.ndarray  # (n, 3) measured (depth read 1 / depth_scale long, noisy)
     sigma: np.ndarray  # (n, 3) noise std used, metres
 
 
@@ -55,14 +55,34 @@ def views_of(
 
 
 def make_problem(
-    n: int, rng: np.random.Generator, T_flange_cam: np.ndarray | None = None, noise_scale: float = 1.0
+    n: int,
+    rng: np.random.Generator,
+    T_flange_cam: np.ndarray | None = None,
+    noise_scale: float = 1.0,
+    robot_noise_m: float = 0.0,
+    robot_noise_deg: float = 0.0,
+    depth_scale: float = 1.0,
+    scale_model: str = "depth_scale",
 ) -> Problem:
-    """A problem of ``n`` views with D435-like noise (:mod:`sofia_calibrator.noise`) times ``noise_scale``."""
+    """A problem of ``n`` views with D435-like noise (:mod:`sofia_calibrator.noise`) times ``noise_scale``.
+
+    Beyond the camera noise: the reported flange poses are off by isotropic ``robot_noise_m``
+    (metres, per axis) and ``robot_noise_deg`` (per axis, about the flange axes), and the camera's
+    depth (``scale_model`` "depth_scale": z; "ray_scale": the whole point) reads 1 / ``depth_scale``
+    long, so that ``depth_scale`` is the correction the calibration should find. ``sigma`` is then
+    the camera noise plus the translation part of the robot noise (not the rotation part).
+    """
     T_fc = random_T_flange_cam(rng) if T_flange_cam is None else T_flange_cam
     p_base = np.array([0.5, 0.0, 0.02]) + rng.uniform(-0.1, 0.1, 3)
     T_base_cam = views_of(p_base, n, rng)
     T_cam_base = np.linalg.inv(T_base_cam)
     p_cam_true = np.einsum("nij,j->ni", T_cam_base[:, :3, :3], p_base) + T_cam_base[:, :3, 3]
     T_base_flange = T_base_cam @ np.linalg.inv(T_fc)
-    p_cam = p_cam_true + sample_noise(p_cam_true, rng, noise_scale)
-    return Problem(T_fc, p_base, T_base_flange, p_cam_true, p_cam, camera_sigma(p_cam_true) * noise_scale)
+    if robot_noise_m > 0 or robot_noise_deg > 0:  # the robot reports a slightly wrong pose
+        T_base_flange[:, :3, 3] += rng.standard_normal((n, 3)) * robot_noise_m
+        turn = Rotation.from_rotvec(np.radians(robot_noise_deg) * rng.standard_normal((n, 3))).as_matrix()
+        T_base_flange[:, :3, :3] = T_base_flange[:, :3, :3] @ turn
+    seen = p_cam_true / depth_scale if scale_model == "ray_scale" else p_cam_true / [1.0, 1.0, depth_scale]
+    p_cam = seen + sample_noise(seen, rng, noise_scale)
+    sigma = np.sqrt((camera_sigma(seen) * noise_scale) ** 2 + robot_noise_m**2)
+    return Problem(T_fc, p_base, T_base_flange, p_cam_true, p_cam, sigma)

@@ -11,18 +11,21 @@ Its norm equals the distance of the mapped blob ``T_base_flange_i T_flange_cam p
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import so3
+from . import correction, so3
 
 LOSSES = ("linear", "huber", "cauchy")
 # [u]x = u[:, _SKEW_IDX] * _SKEW_SIGN
 _SKEW_IDX = np.array([[0, 2, 1], [2, 0, 0], [1, 0, 0]])
 _SKEW_SIGN = np.array([[0.0, -1.0, 1.0], [1.0, 0.0, -1.0], [-1.0, 1.0, 0.0]])
-# Below 5 samples the 15-unknown linear start is underdetermined; more starts are tried.
+# Up to 5 samples the 15-unknown linear start is not over-determined; more starts are tried.
 MIN_LINEAR_SAMPLES = 5
+MAX_OFFSET_M = 0.5  # a camera further than this from the flange is a wrong minimum
+MULTI_STARTS = 6  # cube rotations refined, the best by their closed-form cost
+IMPLAUSIBLE_RMS_M = 0.01  # RMS residual per axis above which more starts are tried, metres
 
 
 @dataclass
@@ -34,9 +37,13 @@ class Solution:
     p_base: np.ndarray  # (3,) blob in the base frame, metres
     cost: float  # sum of robust(squared whitened residual norms)
     n_iter: int
-    JtJ: np.ndarray  # (9, 9) Gauss-Newton information matrix (unit weights), params (theta, t, p_base)
-    errors: np.ndarray  # (n, 3) predicted minus measured blob, camera frame, metres
+    JtJ: np.ndarray  # (9 + k, 9 + k) Gauss-Newton information matrix, params (theta, t, p_base, beta)
+    errors: np.ndarray  # (n, 3) predicted minus corrected measured blob, camera frame, metres
     weights: np.ndarray  # (n,) robust weights of the samples at the solution (1 = full weight)
+    model: str = "rigid"  # camera-correction model (see :mod:`sofia_calibrator.correction`)
+    beta: np.ndarray = field(default_factory=lambda: np.zeros(0))  # (k,) correction unknowns
+    J: np.ndarray | None = None  # (3 n, 9 + k) whitened Jacobian at the solution
+    whitened: np.ndarray | None = None  # (n, 3) whitened residuals (errors / sigma)
 
     @property
     def T_flange_cam(self) -> np.ndarray:
@@ -105,11 +112,14 @@ def refine(
     loss_scale: float = 3.0,
     max_iter: int = 100,
     tol: float = 1e-9,
+    model: str = "rigid",
+    beta: np.ndarray | None = None,
 ) -> Solution:
-    """Levenberg-Marquardt from (R, t, p_base), R updated on the right: R exp([dtheta]x).
+    """Levenberg-Marquardt from (R, t, p_base, beta), R updated on the right: R exp([dtheta]x).
 
-    Residual (camera frame) f_i = R^T (R_i^T (p_base - t_i) - t) - p_cam_i =: u_i - p_cam_i with
-    df/dtheta = [u_i]x, df/dt = -R^T, df/dp_base = R^T R_i^T. sigma: (n, 3) per-axis camera-frame
+    Residual (camera frame) f_i = R^T (R_i^T (p_base - t_i) - t) - (p_cam_i + G_i beta) =: u_i - c_i
+    with df/dtheta = [u_i]x, df/dt = -R^T, df/dp_base = R^T R_i^T, df/dbeta = -G_i (the camera
+    correction of ``model``, :mod:`sofia_calibrator.correction`). sigma: (n, 3) per-axis camera-frame
     noise, metres (whitening); loss: "linear", "huber" or "cauchy" with ``loss_scale`` in sigma
     units (robust loss by iteratively reweighting samples).
     """
@@ -117,28 +127,34 @@ def refine(
     Rt_fl = np.swapaxes(R_base_flange, 1, 2)
     d_fl = -t_base_flange
     inv_sigma = 1.0 / sigma
-
+    G = correction.columns(model, p_cam)
+    k = G.shape[2]
+    beta = np.zeros(k) if beta is None or len(beta) != k else np.asarray(beta, dtype=np.float64)
     ones = np.ones(n)
 
-    def evaluate(R: np.ndarray, t: np.ndarray, p_base: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
+    def evaluate(
+        R: np.ndarray, t: np.ndarray, p_base: np.ndarray, beta: np.ndarray
+    ) -> tuple[float, np.ndarray, np.ndarray]:
         q = (Rt_fl @ (p_base + d_fl)[:, :, None])[:, :, 0]  # blob in the flange frame at each pose
         eu = np.empty((n, 6))
         eu[:, 3:] = (q - t) @ R  # u: predicted blob, camera frame
-        eu[:, :3] = (eu[:, 3:] - p_cam) * inv_sigma  # whitened residual
+        c = p_cam if k == 0 else p_cam + G @ beta
+        eu[:, :3] = (eu[:, 3:] - c) * inv_sigma  # whitened residual
         if loss == "linear":
             return float(np.vdot(eu[:, :3], eu[:, :3])), eu, ones
         rho, w = _robust(np.einsum("ni,ni->n", eu[:, :3], eu[:, :3]), loss, loss_scale)
         return float(rho.sum()), eu, w
 
     def jacobian(R: np.ndarray, u: np.ndarray) -> np.ndarray:
-        J = np.empty((n, 3, 9))
+        J = np.empty((n, 3, 9 + k))
         J[:, :, :3] = u[:, _SKEW_IDX] * _SKEW_SIGN  # [u]x
         J[:, :, 3:6] = -R.T
-        J[:, :, 6:] = R.T @ Rt_fl
+        J[:, :, 6:9] = R.T @ Rt_fl
+        J[:, :, 9:] = -G
         J *= inv_sigma[:, :, None]
-        return J.reshape(3 * n, 9)
+        return J.reshape(3 * n, 9 + k)
 
-    cost, eu, w = evaluate(R, t, p_base)
+    cost, eu, w = evaluate(R, t, p_base, beta)
     lam = 1e-6
     it = 0
     J = jacobian(R, eu[:, 3:])
@@ -156,10 +172,10 @@ def refine(
                 converged = True
                 break
             R_new = R @ so3.exp(dx[:3])
-            t_new, p_new = t + dx[3:6], p_base + dx[6:]
-            cost_new, eu_new, w_new = evaluate(R_new, t_new, p_new)
+            t_new, p_new, b_new = t + dx[3:6], p_base + dx[6:9], beta + dx[9:]
+            cost_new, eu_new, w_new = evaluate(R_new, t_new, p_new, b_new)
             if cost_new <= cost:
-                R, t, p_base, cost, eu, w = R_new, t_new, p_new, cost_new, eu_new, w_new
+                R, t, p_base, beta, cost, eu, w = R_new, t_new, p_new, b_new, cost_new, eu_new, w_new
                 lam = max(lam / 10.0, 1e-12)
                 J = jacobian(R, eu[:, 3:])
                 break
@@ -167,7 +183,14 @@ def refine(
             if lam > 1e16:
                 converged = True
                 break
-    return Solution(R, t, p_base, cost, it, J.T @ J, eu[:, :3] * sigma, w)
+    return Solution(R, t, p_base, cost, it, J.T @ J, eu[:, :3] * sigma, w, model, beta, J, eu[:, :3])
+
+
+def plausible(sol: Solution) -> bool:
+    """A camera within ``MAX_OFFSET_M`` of the flange with an RMS residual per axis below
+    ``IMPLAUSIBLE_RMS_M`` (else a wrong minimum is suspected)."""
+    rms = float(np.sqrt(np.mean(sol.errors**2)))
+    return bool(np.linalg.norm(sol.t) < MAX_OFFSET_M and rms < IMPLAUSIBLE_RMS_M)
 
 
 def solve(
@@ -177,30 +200,49 @@ def solve(
     T_flange_cam_guess: np.ndarray | None = None,
     loss: str = "linear",
     loss_scale: float = 3.0,
+    model: str = "rigid",
 ) -> Solution:
     """Solve for T_flange_cam and p_base; inputs are trusted (see :func:`calibrate` for validation).
 
-    p_cam: (n, 3) camera frame, metres; T_base_flange: (n, 4, 4); sigma: (n, 3) metres or None (unit).
-    Without a guess the linear closed form starts the refinement; with one, p_base starts at the
-    mean of the blob mapped through the guess.
+    p_cam: (n, 3) camera frame, metres; T_base_flange: (n, 4, 4); sigma: (n, 3) metres or None
+    (1 mm). Starts: the linear closed form, plus the guess when given (one more start, never the
+    only one), plus the ``MULTI_STARTS`` best of the 24 cube rotations when the linear system is not over-determined
+    (n <= 5) or the best solution is implausible (:func:`plausible`). The lowest cost of the
+    plausible solutions wins.
     """
     R_fl, t_fl = T_base_flange[:, :3, :3], T_base_flange[:, :3, 3]
     if sigma is None:
-        sigma = np.ones_like(p_cam)
-    if T_flange_cam_guess is not None:
-        R, t = T_flange_cam_guess[:3, :3], T_flange_cam_guess[:3, 3]
-        return refine(p_cam, R_fl, t_fl, sigma, R, t, start_target(p_cam, R_fl, t_fl, R, t), loss, loss_scale)
+        sigma = np.full_like(p_cam, 1e-3)
+
+    def from_start(R0: np.ndarray, t0: np.ndarray, p0: np.ndarray | None = None) -> Solution:
+        p0 = start_target(p_cam, R_fl, t_fl, R0, t0) if p0 is None else p0
+        return refine(p_cam, R_fl, t_fl, sigma, R0, t0, p0, loss, loss_scale, model=model)
+
     R, t, p_base = linear_init(p_cam, R_fl, t_fl, 1.0 / np.mean(sigma, axis=1) ** 2)
-    best = refine(p_cam, R_fl, t_fl, sigma, R, t, p_base, loss, loss_scale)
-    if len(p_cam) < MIN_LINEAR_SAMPLES:  # the linear system is underdetermined: add starts
-        for R0 in cube_rotations():
-            z = np.zeros(3)
-            sol = refine(
-                p_cam, R_fl, t_fl, sigma, R0, z, start_target(p_cam, R_fl, t_fl, R0, z), loss, loss_scale
-            )
-            if sol.cost < best.cost:
-                best = sol
-    return best
+    sols = [from_start(R, t, p_base)]
+    if T_flange_cam_guess is not None:
+        sols.append(from_start(T_flange_cam_guess[:3, :3], T_flange_cam_guess[:3, 3]))
+    if len(p_cam) <= MIN_LINEAR_SAMPLES or not any(plausible(s) for s in sols):
+        cube = cube_rotations()
+        best = np.argsort(_rotation_only_costs(p_cam, R_fl, t_fl, cube))[:MULTI_STARTS]
+        sols += [from_start(R0, np.zeros(3)) for R0 in cube[best]]
+    return min(sols, key=lambda s: (not plausible(s), s.cost))  # a plausible camera first, then cost
+
+
+def _rotation_only_costs(
+    p_cam: np.ndarray, R_base_flange: np.ndarray, t_base_flange: np.ndarray, Rs: np.ndarray
+) -> np.ndarray:
+    """(m,) least-squares costs of fixed rotations Rs (m, 3, 3) = R_flange_cam: R_i (R p_i + t) +
+    t_i = p_base is linear in (t, p_base), with the same matrix for every R (one pseudo-inverse)."""
+    n = len(p_cam)
+    A = np.zeros((n, 3, 6))
+    A[:, :, :3] = R_base_flange
+    A[:, :, 3:] = -np.eye(3)
+    A2 = A.reshape(-1, 6)
+    B = -(t_base_flange[None] + np.einsum("nij,mkj,nk->mni", R_base_flange, Rs, p_cam))  # (m, n, 3)
+    B2 = B.reshape(len(Rs), -1)
+    resid = B2 - (B2 @ np.linalg.pinv(A2).T) @ A2.T
+    return np.asarray(np.einsum("mi,mi->m", resid, resid))
 
 
 def start_target(
@@ -214,6 +256,10 @@ def start_target(
 
 def cube_rotations() -> np.ndarray:
     """(24, 3, 3) the rotations of the cube: well-spread starting rotations."""
+    return _CUBE.copy()
+
+
+def _cube() -> np.ndarray:
     perms = [(0, 1, 2), (1, 2, 0), (2, 0, 1), (1, 0, 2), (0, 2, 1), (2, 1, 0)]
     out = []
     for perm in perms:
@@ -222,3 +268,6 @@ def cube_rotations() -> np.ndarray:
             if np.linalg.det(M) > 0:
                 out.append(M)
     return np.array(out)
+
+
+_CUBE = _cube()

@@ -1,0 +1,104 @@
+"""Camera-correction models fitted jointly with ``T_flange_cam``, and the choice between them.
+
+A D435's depth is often off by a scale of 1-5 %. The measured blob ``p_cam`` (camera optical
+frame, metres) is corrected before the rigid transform: ``p_corr = p_cam + G(p_cam) @ beta``,
+linear in the unknowns ``beta``:
+
+- ``rigid``: no correction (k = 0);
+- ``depth_scale``: z is multiplied by s = 1 + beta[0] (G = (0, 0, z));
+- ``ray_scale``: the whole point (its range along the viewing ray) by s = 1 + beta[0] (G = p).
+
+A constant depth offset is not offered: for a blob seen straight ahead it is the same as moving the
+camera along its z axis, which ``T_flange_cam`` already does (point data cannot tell them apart).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.special import fdtrc
+from sofia_schemas.messages.calibration import CameraCorrection
+
+MODELS = ("rigid", "depth_scale", "ray_scale")
+N_EXTRA = {"rigid": 0, "depth_scale": 1, "ray_scale": 1}
+# A correction is chosen when the F-test against the rigid model rejects rigid at this level
+# (Bonferroni over the corrections tried): a rigid camera gets a correction in about 0.1 % of sets.
+MODEL_ALPHA = 0.001
+MIN_SAMPLES_FOR_SCALE = 6  # below this the scale is not separable from the transform with any redundancy
+
+
+def columns(model: str, p_cam: np.ndarray) -> np.ndarray:
+    """(n, 3, k) d p_corr / d beta of (n, 3) camera-frame points for ``model``."""
+    n = len(p_cam)
+    G = np.zeros((n, 3, N_EXTRA[model]))
+    if model == "depth_scale":
+        G[:, 2, 0] = p_cam[:, 2]
+    elif model == "ray_scale":
+        G[:, :, 0] = p_cam
+    return G
+
+
+def apply(model: str, beta: np.ndarray, p_cam: np.ndarray) -> np.ndarray:
+    """(n, 3) corrected camera-frame points: ``p_cam + G(p_cam) @ beta``."""
+    if model == "rigid":
+        return p_cam
+    return p_cam + columns(model, p_cam) @ beta
+
+
+def message(model: str, beta: np.ndarray, beta_sigma: np.ndarray | None) -> CameraCorrection:
+    """The bus message of a fitted correction (scale = 1 + beta[0])."""
+    if model == "rigid":
+        return CameraCorrection()
+    sig = None if beta_sigma is None else float(beta_sigma[0])
+    return CameraCorrection(model=model, depth_scale=1.0 + float(beta[0]), depth_scale_sigma=sig)  # type: ignore[arg-type]
+
+
+def describe(corr: CameraCorrection) -> str:
+    """One line saying what a correction means for the user (:meth:`CameraCorrection.describe`)."""
+    return corr.describe()
+
+
+@dataclass
+class Candidate:
+    """A fitted model for the choice: chi-square in nominal noise units, unknowns, observations."""
+
+    model: str
+    chi2: float
+    n_params: int
+    n_obs: int
+    beta: np.ndarray
+    beta_sigma: np.ndarray | None
+    p_value: float | None = None
+
+    @property
+    def aic(self) -> float:
+        return float(self.n_obs * np.log(max(self.chi2, 1e-300) / self.n_obs) + 2 * self.n_params)
+
+
+def choose(cands: list[Candidate], alpha: float = MODEL_ALPHA) -> tuple[Candidate, str]:
+    """The chosen model and why. ``cands[0]`` is rigid; the best-fitting correction replaces it when
+    the F-test (nested, one more unknown) rejects the rigid model at ``alpha``; p-values are set."""
+    rigid = cands[0]
+    for c in cands[1:]:
+        dof = c.n_obs - c.n_params
+        if dof <= 0:
+            continue
+        extra = c.n_params - rigid.n_params
+        F = max(rigid.chi2 - c.chi2, 0.0) / extra / max(c.chi2 / dof, 1e-300)
+        c.p_value = float(fdtrc(extra, dof, F))
+    tested = [c for c in cands[1:] if c.p_value is not None]
+    if not tested:
+        return rigid, "rigid: too few samples to test a depth-scale correction"
+    best = min(tested, key=lambda c: c.chi2)
+    assert best.p_value is not None
+    daic = best.aic - rigid.aic
+    if best.p_value * len(tested) < alpha:
+        return (
+            best,
+            f"{best.model}: F-test against rigid p = {best.p_value:.2g} (< {alpha} / {len(tested)}), AIC {daic:+.1f}",
+        )
+    return (
+        rigid,
+        f"rigid: the best correction ({best.model}) is not significant (p = {best.p_value:.2g}, AIC {daic:+.1f})",
+    )

@@ -1,0 +1,156 @@
+"""The sample log's file format, its recovery on start, and durable appends.
+
+One record per line: ``{"crc32":"1a2b3c4d",<the record's members>}`` + newline, where the CRC-32
+covers the record as written without it (``{`` + the rest of the line), so any damaged byte is
+detected and the line stays plain JSON. Lines without the prefix come from logs written before
+checksums: they are read, and counted as unchecked. A record counts only with its newline: bytes
+after the last newline are a torn write, never acknowledged.
+
+Side files beside the log keep what recovery set aside: ``samples.jsonl.torn`` (cut tails,
+appended) and ``samples.jsonl.damaged`` (a copy of the damaged lines, rewritten on each start).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+import time
+import zlib
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from .sample_errors import SampleLogError
+
+PREFIX = b'{"crc32":"'
+TORN_SUFFIX = ".torn"
+DAMAGED_SUFFIX = ".damaged"
+_OP = re.compile(rb'"op"\s*:\s*"(\w{1,16})"')
+_SAMPLE_ID = re.compile(rb'"sample_id"\s*:\s*(\d{1,18})\b')
+
+
+def encode(entry: dict[str, Any]) -> bytes:
+    """One log line (with its newline) for ``entry``, a non-empty JSON object of finite values."""
+    body = json.dumps(entry, separators=(",", ":"), allow_nan=False).encode()
+    return PREFIX + b"%08x" % zlib.crc32(body) + b'",' + body[1:] + b"\n"
+
+
+def decode(raw: bytes) -> tuple[dict[str, Any], bool]:
+    """(record, checksum verified) of one line without its newline; raises on any damage."""
+    if raw.startswith(PREFIX):
+        crc_hex, sep, body = raw[10:18], raw[18:20], b"{" + raw[20:]
+        if sep != b'",' or not re.fullmatch(rb"[0-9a-f]{8}", crc_hex):
+            raise ValueError("malformed checksum prefix")
+        if int(crc_hex, 16) != zlib.crc32(body):
+            raise ValueError(f"checksum mismatch (line says {crc_hex.decode()}, content has "
+                             f"{zlib.crc32(body):08x})")  # fmt: skip
+        entry, checked = json.loads(body.decode()), True
+    else:
+        entry, checked = json.loads(raw.decode()), False  # bytes not UTF-8: UnicodeDecodeError
+    if not isinstance(entry, dict):
+        raise ValueError(f"a record must be a JSON object, got {type(entry).__name__}")
+    return entry, checked
+
+
+@dataclass
+class Line:
+    """One complete line of the log: 1-based ``number`` and bytes without the newline."""
+
+    number: int
+    raw: bytes
+
+
+@dataclass
+class Damaged:
+    """A line that could not be applied, why, and what it seems to have been."""
+
+    number: int
+    raw: bytes
+    reason: str
+
+    @property
+    def op(self) -> str:
+        """The record's op if it can still be read from the damaged bytes, else ``"?"``."""
+        m = _OP.search(self.raw)
+        return m.group(1).decode() if m else "?"
+
+    @property
+    def sample_id(self) -> int | None:
+        m = _SAMPLE_ID.search(self.raw)
+        return int(m.group(1)) if m and self.op == "add" else None
+
+
+def recover(path: Path) -> list[Line]:
+    """The complete lines of the log at ``path``; a torn tail is cut off and kept in a side file."""
+    data = path.read_bytes()
+    end = data.rfind(b"\n") + 1
+    if end < len(data):
+        torn = Path(f"{path}{TORN_SUFFIX}")
+        header = f"# {len(data) - end} bytes cut from {path.name} at byte {end} on {time.ctime()}\n"
+        with torn.open("ab") as f:
+            f.write(header.encode() + data[end:] + b"\n")
+            f.flush()
+            os.fsync(f.fileno())
+        with path.open("r+b") as f:
+            f.truncate(end)
+            os.fsync(f.fileno())
+    return [Line(i, raw) for i, raw in enumerate(data[:end].split(b"\n")[:-1], start=1)]
+
+
+def keep_damaged(path: Path, damaged: list[Damaged]) -> Path:
+    """Write a copy of the damaged lines (each after a ``# log:line: reason`` line) beside the log."""
+    side = Path(f"{path}{DAMAGED_SUFFIX}")
+    if not damaged:
+        side.unlink(missing_ok=True)
+        return side
+    tmp = side.with_name(side.name + ".tmp")
+    with tmp.open("wb") as f:
+        for d in damaged:
+            f.write(f"# {path.name}:{d.number}: {d.reason}\n".encode() + d.raw + b"\n")
+        f.flush()
+        os.fsync(f.fileno())
+    os.replace(tmp, side)
+    return side
+
+
+class Appender:
+    """Appends whole lines, durable (fsynced) when :meth:`append` returns; on any failure the log
+    is cut back to its previous size, so a refused line is never written later."""
+
+    def __init__(self, path: Path) -> None:
+        self.path = path
+        created = not path.exists()
+        self.fd = os.open(path, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o644)
+        self.size = os.fstat(self.fd).st_size
+        self.broken = ""  # why the log can no longer be trusted to hold only acknowledged lines
+        if created:  # the new file's name must survive a crash too
+            dir_fd = os.open(path.parent, os.O_RDONLY)
+            try:
+                os.fsync(dir_fd)
+            finally:
+                os.close(dir_fd)
+
+    def append(self, line: bytes) -> None:
+        if self.broken:
+            raise SampleLogError(self.path, f"not written: the log failed earlier ({self.broken}); "
+                                 "restart the calibrator")  # fmt: skip
+        try:
+            view, done = memoryview(line), 0
+            while done < len(line):
+                done += os.write(self.fd, view[done:])
+            os.fsync(self.fd)
+        except OSError as e:
+            self._undo(e)
+            raise SampleLogError(self.path, f"write failed, nothing written: {e.strerror or e}") from None
+        self.size += len(line)
+
+    def _undo(self, error: OSError) -> None:
+        try:
+            os.ftruncate(self.fd, self.size)
+            os.fsync(self.fd)
+        except OSError as e:
+            self.broken = f"{error.strerror}, and cutting the partial line failed: {e.strerror}"
+
+    def close(self) -> None:
+        os.close(self.fd)

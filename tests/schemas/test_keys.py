@@ -55,6 +55,7 @@ def test_topic_map() -> None:
     assert k.topic_map() == {
         keys.TOPIC_POINTS: "sofia/p1/points",
         keys.TOPIC_CAMERA_POINTS: "sofia/p1/camera/points",
+        keys.TOPIC_CAMERA_INFO: "sofia/p1/camera/camera_info",
         keys.TOPIC_FLANGE_POSE: "sofia/p1/flange/pose",
         keys.TOPIC_BLOB: "sofia/p1/calibrator/blob",
     }

@@ -16,7 +16,7 @@ from sofia_schemas.errors import (
     TruncatedMessage,
     UnsupportedEncoding,
 )
-from sofia_schemas.pointcloud import FLOAT32
+from sofia_schemas.pointcloud import FLOAT32, FLOAT64
 
 XYZ32 = [("x", 0, FLOAT32, 1), ("y", 4, FLOAT32, 1), ("z", 8, FLOAT32, 1)]
 XYZRGB32 = [*XYZ32, ("rgb", 12, FLOAT32, 1)]
@@ -145,3 +145,41 @@ def test_errors_are_value_errors() -> None:
     """Callers that catch ValueError (the CLI, services) also catch codec errors."""
     with pytest.raises(ValueError):
         pointcloud.decode(b"\x00\x01")
+
+
+def test_x_y_z_at_the_same_offset(ros_cloud: Callable[..., bytes]) -> None:
+    fields = [("x", 0, FLOAT32, 1), ("y", 0, FLOAT32, 1), ("z", 0, FLOAT32, 1)]
+    with pytest.raises(SizeMismatch, match=r"PointFields 'x' .* and 'y' .* overlap"):
+        pointcloud.decode(ros_cloud(fields, 12, np.zeros(24, np.uint8), height=1, width=2))
+
+
+def test_float64_x_overlapping_y(ros_cloud: Callable[..., bytes]) -> None:
+    fields = [("x", 0, FLOAT64, 1), ("y", 4, FLOAT32, 1), ("z", 8, FLOAT32, 1)]
+    with pytest.raises(SizeMismatch, match=r"'x' \(bytes up to 8\) and 'y' \(from byte 4\) overlap"):
+        pointcloud.decode(ros_cloud(fields, 12, np.zeros(24, np.uint8), height=1, width=2))
+
+
+def test_zero_count(ros_cloud: Callable[..., bytes]) -> None:
+    fields = [*XYZ32, ("rgb", 12, FLOAT32, 0)]
+    with pytest.raises(SizeMismatch, match="'rgb' has count 0; it must be at least 1"):
+        pointcloud.decode(ros_cloud(fields, 16, np.zeros(32, np.uint8), height=1, width=2))
+
+
+def test_a_field_named_twice(ros_cloud: Callable[..., bytes]) -> None:
+    fields = [*XYZ32, ("x", 12, FLOAT32, 1)]
+    with pytest.raises(SizeMismatch, match=r"names a field twice: \['x'\]"):
+        pointcloud.decode(ros_cloud(fields, 16, np.zeros(32, np.uint8), height=1, width=2))
+
+
+@pytest.mark.parametrize("extra", [4, 1_000_000])
+def test_bytes_after_the_message(extra: int) -> None:
+    with pytest.raises(SizeMismatch, match=rf"has {extra} bytes after its last field"):
+        pointcloud.decode(_small() + b"\xab" * extra)
+
+
+def test_alignment_padding_is_accepted(ros_cloud: Callable[..., bytes]) -> None:
+    """Up to 3 bytes may pad a serialized message to a multiple of 4 (DDS does)."""
+    for pad in range(4):
+        cloud = pointcloud.decode(_small() + b"\x00" * pad)
+        assert cloud.n_points == 6
+    assert pointcloud.decode(ros_cloud(XYZRGB32, 16, np.zeros(96, np.uint8), height=2, width=3)).n_points == 6

@@ -29,24 +29,42 @@ def config_file(tmp_path: Path) -> Path:
     return path
 
 
-def test_defaults_peer_on_loopback() -> None:
-    s = resolve(ZenohOptions(), env={})
-    assert s == {
+def test_defaults_peer_on_local_sockets_only(tmp_path: Path) -> None:
+    env = {"SOFIA_ZENOH_SOCKET_DIR": str(tmp_path / "sock")}
+    s = resolve(ZenohOptions(), env=env)
+    (local,) = s["listen"]  # type: ignore[misc]
+    assert local.startswith(f"unixsock-stream/{tmp_path / 'sock'}/")
+    assert {k: v for k, v in s.items() if k != "listen"} == {
         "mode": "peer",
         "connect": [],
-        "listen": ["tcp/127.0.0.1:0"],
         "config_file": None,
         "multicast": True,
+        "protocols": ["unixsock-stream"],
     }
-    conf = zenoh_config(ZenohOptions(), env={})
+    assert (tmp_path / "sock").stat().st_mode & 0o777 == 0o700  # other users cannot reach the bus
+    conf = zenoh_config(ZenohOptions(), env=env)
     assert _get(conf, "mode") == "peer"
-    assert _get(conf, "listen/endpoints") == ["tcp/127.0.0.1:0"]
+    assert _get(conf, "transport/link/protocols") == ["unixsock-stream"]
     assert _get(conf, "scouting/multicast/enabled") is True
     assert _get(conf, "scouting/multicast/interface") == "lo"
+    assert _get(conf, "listen/endpoints")[0].startswith("unixsock-stream/")  # type: ignore[index]
 
 
-def test_router_mode_default_listen() -> None:
-    assert resolve(ZenohOptions(mode="router"), env={})["listen"] == ["tcp/127.0.0.1:7447"]
+def test_each_session_its_own_socket_and_stale_ones_pruned(tmp_path: Path) -> None:
+    env = {"SOFIA_ZENOH_SOCKET_DIR": str(tmp_path)}
+    stale = tmp_path / "999999999-deadbeef.sock"  # a pid that cannot exist
+    stale.touch()
+    a, b = (resolve(ZenohOptions(), env=env)["listen"] for _ in range(2))
+    assert a != b
+    assert not stale.exists()
+
+
+def test_router_mode_default_listen(tmp_path: Path) -> None:
+    s = resolve(ZenohOptions(mode="router"), env={"SOFIA_ZENOH_SOCKET_DIR": str(tmp_path)})
+    assert s["listen"][0] == "tcp/127.0.0.1:7447"  # type: ignore[index]
+    assert s["protocols"] == ["unixsock-stream", "tcp"]
+    conf = zenoh_config(ZenohOptions(mode="router"), env={"SOFIA_ZENOH_SOCKET_DIR": str(tmp_path)})
+    assert _get(conf, "scouting/multicast/autoconnect") == []  # a router never dials a HELLO's locators
 
 
 def test_environment_over_defaults() -> None:
@@ -118,3 +136,33 @@ def test_missing_config_file() -> None:
 def test_invalid_mode() -> None:
     with pytest.raises(ValueError, match="Zenoh mode 'server' is not one of"):
         resolve(ZenohOptions(), env={"SOFIA_ZENOH_MODE": "server"})
+
+
+@pytest.mark.parametrize("source", ["file", "file+environment", "environment"])
+def test_wait_for_router_whatever_the_config_source(config_file: Path, source: str) -> None:
+    env = {"SOFIA_ZENOH_CONNECT": "tcp/127.0.0.1:9"} if "environment" in source else {}
+    if "file" in source:
+        env["SOFIA_ZENOH_CONFIG"] = str(config_file)
+    conf = zenoh_config(ZenohOptions(), env=env)
+    assert _get(conf, "connect/timeout_ms") == {"router": -1, "peer": -1, "client": -1}
+    assert _get(conf, "connect/exit_on_failure") == {"router": False, "peer": False, "client": False}
+    assert _get(conf, "connect/retry")["period_max_ms"] == 2000  # type: ignore[index]
+
+
+def test_a_file_keeps_its_own_connect_timeout(tmp_path: Path) -> None:
+    path = tmp_path / "z.json5"
+    path.write_text('{ mode: "client", connect: { endpoints: ["tcp/127.0.0.1:9"], timeout_ms: 5000 } }')
+    conf = zenoh_config(ZenohOptions(config_file=str(path)), env={})
+    assert _get(conf, "connect/timeout_ms") == 5000
+    assert _get(conf, "connect/exit_on_failure") == {"router": False, "peer": False, "client": False}
+
+
+def test_user_and_password_file_from_the_environment(config_file: Path, tmp_path: Path) -> None:
+    (tmp_path / "pw").write_text("s3cret\n")
+    env = {"SOFIA_ZENOH_CONFIG": str(config_file), "SOFIA_ZENOH_USER": "calibrator",
+           "SOFIA_ZENOH_PASSWORD_FILE": str(tmp_path / "pw")}  # fmt: skip
+    usrpwd = _get(zenoh_config(ZenohOptions(), env=env), "transport/auth/usrpwd")
+    assert usrpwd["user"] == "calibrator" and usrpwd["password"] == "s3cret"  # type: ignore[index]
+    env["SOFIA_ZENOH_PASSWORD_FILE"] = str(tmp_path / "missing")
+    with pytest.raises(FileNotFoundError, match=r"SOFIA_ZENOH_USER is set but \$SOFIA_ZENOH_PASSWORD_FILE"):
+        zenoh_config(ZenohOptions(), env=env)

@@ -8,7 +8,10 @@ anything twice; :func:`query` does that until a reply comes or the time is up.
 
 from __future__ import annotations
 
+import logging
+import threading
 import time
+from collections.abc import Callable
 from typing import TypeVar
 
 import zenoh
@@ -18,6 +21,7 @@ from .messages import ErrorReply
 
 RETRY_S = 0.1
 M = TypeVar("M", bound=BaseModel)
+log = logging.getLogger(__name__)
 
 
 class QueryError(RuntimeError):
@@ -56,3 +60,23 @@ def ask(session: zenoh.Session, key: str, model: type[M], payload: bytes | str |
             raise QueryError(f"{key}: error reply {raw[:200]!r}") from None
         raise QueryError(f"{key}: {err.error}: {err.message}")
     raise QueryError(f"{key}: no reply within {timeout} s")
+
+
+def fetch_latest(
+    session: zenoh.Session, key: str, on_sample: Callable[[zenoh.Sample], None], timeout: float = 30.0
+) -> threading.Thread:
+    """Ask the queryable of a put + queryable ``key`` (e.g. the calibrator's result) once, in the
+    background, for the value published before this process subscribed; each ok reply goes to
+    ``on_sample``, as a sample from the subscriber would. Returns the (daemon) thread."""
+
+    def run() -> None:
+        try:
+            for reply in query(session, key, timeout=timeout):
+                if reply.ok is not None:
+                    on_sample(reply.ok)
+        except zenoh.ZError as e:  # the session closed first
+            log.debug("latest value of %s not fetched: %s", key, e)
+
+    thread = threading.Thread(target=run, name=f"fetch {key}", daemon=True)
+    thread.start()
+    return thread

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -65,14 +66,29 @@ class PointCloud2:
             raise SizeMismatch(f"PointCloud2 has negative size {self.height}x{self.width}")
         if self.height * self.width > MAX_POINTS:
             raise SizeMismatch(f"PointCloud2 of {self.height}x{self.width} exceeds {MAX_POINTS} points")
+        spans = []
         for f in self.fields:
             if f.datatype not in DATATYPE_DTYPES:
                 raise UnsupportedEncoding(f"PointField {f.name!r} has unknown datatype {f.datatype}")
-            end = f.offset + f.dtype.itemsize * max(f.count, 1)
+            if f.count < 1:
+                raise SizeMismatch(f"PointField {f.name!r} has count {f.count}; it must be at least 1")
+            end = f.offset + f.dtype.itemsize * f.count
             if end > self.point_step:
                 raise SizeMismatch(
                     f"PointField {f.name!r} ends at byte {end}, beyond point_step {self.point_step}"
                 )
+            spans.append((f.offset, end, f.name))
+        spans.sort()
+        for (_, end_a, a), (start_b, _, b) in itertools.pairwise(spans):
+            if start_b < end_a:
+                raise SizeMismatch(
+                    f"PointFields {a!r} (bytes up to {end_a}) and {b!r} (from byte {start_b}) overlap"
+                )
+        if len(self._field_index) != len(self.fields):
+            names = [f.name for f in self.fields]
+            raise SizeMismatch(
+                f"PointCloud2 names a field twice: {sorted(n for n in set(names) if names.count(n) > 1)}"
+            )
         if self.height * self.width and self.row_step < self.point_step * self.width:
             raise SizeMismatch(
                 f"row_step {self.row_step} < point_step {self.point_step} x width {self.width}"

@@ -38,6 +38,7 @@ __all__ = [
 
 CDR_LE = b"\x00\x01\x00\x00"
 CDR_BE = b"\x00\x00\x00\x00"
+CDR_PADDING_MAX = 3  # a serialized message may be padded to a multiple of 4 bytes
 
 
 # --- CDR reading ------------------------------------------------------------
@@ -129,6 +130,11 @@ def decode(payload: bytes | bytearray | memoryview) -> PointCloud2:
     data = buf[r.pos : r.pos + n_data]
     r.pos += n_data
     is_dense = bool(r.u8("is_dense"))
+    if r.n - r.pos > CDR_PADDING_MAX:
+        raise SizeMismatch(
+            f"PointCloud2 CDR has {r.n - r.pos} bytes after its last field (is_dense at byte {r.pos - 1}); "
+            f"at most {CDR_PADDING_MAX} bytes of alignment padding may follow"
+        )
     return PointCloud2(
         stamp_ns=sec * 1_000_000_000 + nsec,
         frame_id=frame_id,

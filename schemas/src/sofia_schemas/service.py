@@ -21,6 +21,8 @@ import zenoh
 from pydantic import BaseModel
 
 from .keys import ENCODING_JSON
+from .limits import MESSAGE_CHARS, ClipFilter, check_payload, error_text
+from .memory import trim_heap
 from .messages import ErrorReply, ServiceStatus
 
 T = TypeVar("T")
@@ -28,11 +30,14 @@ log = logging.getLogger(__name__)
 
 
 def setup_logging(level: str = "INFO", log_file: str | Path | None = None) -> None:
-    """Configure the root logger: ``time level name: message`` to stderr (and a file)."""
+    """Configure the root logger: ``time level name: message`` to stderr (and a file); every record
+    is clipped (:class:`~sofia_schemas.limits.ClipFilter`), so no payload floods a log."""
     handlers: list[logging.Handler] = [logging.StreamHandler()]
     if log_file:
         Path(log_file).parent.mkdir(parents=True, exist_ok=True)
         handlers.append(logging.FileHandler(log_file))
+    for handler in handlers:
+        handler.addFilter(ClipFilter())
     logging.basicConfig(
         level=getattr(logging, level.upper(), logging.INFO),
         format="%(asctime)s %(levelname)s %(name)s: %(message)s",
@@ -104,11 +109,11 @@ def reply_json(query: zenoh.Query, message: BaseModel, key: str | None = None) -
 
 
 def reply_error(query: zenoh.Query, error: BaseException | str, key: str | None = None) -> None:
-    """Reply with an :class:`ErrorReply` saying what was wrong (``reply_err``), then finalise."""
-    if isinstance(error, BaseException):
-        reply = ErrorReply(error=type(error).__name__, message=str(error), key=key or str(query.key_expr))
-    else:
-        reply = ErrorReply(error="Error", message=error, key=key or str(query.key_expr))
+    """Reply with an :class:`ErrorReply` saying what was wrong (``reply_err``), then finalise.
+    The message is clipped (:func:`~sofia_schemas.limits.error_text`): it quotes at most the first
+    characters of an offending value."""
+    name = type(error).__name__ if isinstance(error, BaseException) else "Error"
+    reply = ErrorReply(error=name, message=error_text(error), key=key or str(query.key_expr))
     try:
         query.reply_err(reply.model_dump_json(), encoding="application/json")
     finally:
@@ -131,7 +136,9 @@ def run_worker(name: str, target: Callable[[], None]) -> threading.Thread:
 
 
 def query_payload(query: zenoh.Query) -> bytes:
-    """The payload of ``query`` (empty bytes when it has none)."""
+    """The payload of ``query`` (empty bytes when it has none); :class:`PayloadTooLarge` (a
+    ``ValueError``) beyond the limit of its key (:func:`~sofia_schemas.limits.payload_limit`)."""
+    check_payload(str(query.key_expr), query.payload)
     return query.payload.to_bytes() if query.payload is not None else b""
 
 
@@ -148,9 +155,16 @@ class StatusEndpoint:
         self._publisher = session.declare_publisher(key, encoding=ENCODING_JSON)
         self._queryable = session.declare_queryable(key, self._answer)
 
+    def _status(self) -> ServiceStatus:
+        """The service's status, its detail clipped (an error it quotes may be huge)."""
+        status = self._build()
+        if len(status.detail) > MESSAGE_CHARS:
+            status = status.model_copy(update={"detail": error_text(status.detail)})
+        return status
+
     def _answer(self, query: zenoh.Query) -> None:
         try:
-            status = self._build()
+            status = self._status()
         except Exception as e:  # a status that cannot be built is itself news
             log.exception("status of %s", self.key)
             reply_error(query, e, self.key)
@@ -158,7 +172,10 @@ class StatusEndpoint:
         reply_json(query, status, self.key)
 
     def publish(self) -> None:
-        self._publisher.put(self._build().to_json_bytes(), encoding=ENCODING_JSON)
+        """Publish the status; also hand freed heap memory back to the system (once a second, as
+        services call this, the resident size returns to its steady value after any burst)."""
+        self._publisher.put(self._status().to_json_bytes(), encoding=ENCODING_JSON)
+        trim_heap()
 
     def undeclare(self) -> None:
         self._queryable.undeclare()

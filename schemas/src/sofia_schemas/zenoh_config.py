@@ -2,17 +2,23 @@
 
 Precedence, lowest first:
 
-1. defaults: peer mode, listening on loopback only (``tcp/127.0.0.1:0``), multicast scouting on
-   the loopback interface, so processes on one machine find each other with no router;
+1. defaults: peer mode, multicast scouting on the loopback interface, so processes on one machine
+   find each other with no router; sessions listen and connect only on Unix sockets
+   (``unixsock-stream``, in a directory only this user can enter), so no scouted locator (a forged
+   HELLO included) can make a process dial a network address;
 2. a json5 Zenoh config file: ``--zenoh-config FILE`` or ``$SOFIA_ZENOH_CONFIG``;
 3. environment: ``$SOFIA_ZENOH_MODE`` (peer|client|router), ``$SOFIA_ZENOH_CONNECT`` and
    ``$SOFIA_ZENOH_LISTEN`` (comma-separated endpoints, e.g. ``tcp/zenoh:7447``);
 4. command-line flags: ``--zenoh-mode``, ``--connect``, ``--listen``.
 
 When connect endpoints are given (a router, as in compose), multicast scouting is turned off:
-discovery goes through the router, and multicast does not cross Docker networks anyway; the
-session then waits for the router when it is not reachable yet, rather than failing, and
-reconnects by itself after a router restart.
+discovery goes through the router, and multicast does not cross Docker networks anyway. Whenever
+the session has connect endpoints, whatever their source (a config file included), it waits for
+them when they are not reachable yet, rather than failing, and reconnects by itself after a router
+restart (a config file that sets ``connect/timeout_ms``, ``exit_on_failure`` or ``retry`` keeps its
+own values). Explicit ``--listen`` endpoints without connect endpoints keep multicast scouting;
+their protocols are then allowed too, and a scouted locator of those protocols is dialled: use a
+router (connect endpoints) on untrusted networks.
 """
 
 from __future__ import annotations
@@ -21,6 +27,8 @@ import argparse
 import json
 import logging
 import os
+import secrets
+import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -31,16 +39,54 @@ ENV_CONFIG = "SOFIA_ZENOH_CONFIG"
 ENV_MODE = "SOFIA_ZENOH_MODE"
 ENV_CONNECT = "SOFIA_ZENOH_CONNECT"
 ENV_LISTEN = "SOFIA_ZENOH_LISTEN"
-DEFAULT_LISTEN = ["tcp/127.0.0.1:0"]
+ENV_SOCKET_DIR = "SOFIA_ZENOH_SOCKET_DIR"
+ENV_USER = "SOFIA_ZENOH_USER"
+ENV_PASSWORD_FILE = "SOFIA_ZENOH_PASSWORD_FILE"
 DEFAULT_ROUTER_LISTEN = ["tcp/127.0.0.1:7447"]
+LOCAL_PROTOCOL = "unixsock-stream"
 MODES = ("peer", "client", "router")
 CONNECT_TIMEOUT_MS = {"router": -1, "peer": -1, "client": -1}
 EXIT_ON_FAILURE = {"router": False, "peer": False, "client": False}
 CONNECT_RETRY = {"period_init_ms": 250, "period_max_ms": 2000, "period_increase_factor": 1.5}
+WAIT_SETTINGS = {"connect/timeout_ms": CONNECT_TIMEOUT_MS, "connect/exit_on_failure": EXIT_ON_FAILURE,
+                 "connect/retry": CONNECT_RETRY}  # fmt: skip
 
 
 def _split(value: str | None) -> list[str]:
     return [v.strip() for v in value.split(",") if v.strip()] if value else []
+
+
+def socket_dir(env: dict[str, str] | None = None) -> Path:
+    """The directory of this user's local (Unix socket) endpoints, mode 0700: ``$SOFIA_ZENOH_SOCKET_DIR``,
+    else ``$XDG_RUNTIME_DIR/sofia-zenoh``, else ``<tmp>/sofia-zenoh-<uid>``."""
+    env = dict(os.environ if env is None else env)
+    if env.get(ENV_SOCKET_DIR):
+        path = Path(env[ENV_SOCKET_DIR])
+    elif env.get("XDG_RUNTIME_DIR") and os.access(env["XDG_RUNTIME_DIR"], os.W_OK):
+        path = Path(env["XDG_RUNTIME_DIR"]) / "sofia-zenoh"
+    else:
+        path = Path(tempfile.gettempdir()) / f"sofia-zenoh-{os.getuid()}"
+    path.mkdir(mode=0o700, parents=True, exist_ok=True)
+    return path
+
+
+def _prune(directory: Path) -> None:
+    """Remove sockets left by processes that died without closing their session (``<pid>-*.sock``)."""
+    for sock in directory.glob("*-*.sock"):
+        pid = sock.name.split("-", 1)[0]
+        if pid.isdigit() and not Path(f"/proc/{pid}").exists():
+            sock.unlink(missing_ok=True)
+
+
+def local_endpoint(env: dict[str, str] | None = None) -> str:
+    """A fresh Unix-socket endpoint for one session (``unixsock-stream/<dir>/<pid>-<random>.sock``)."""
+    directory = socket_dir(env)
+    _prune(directory)
+    return f"{LOCAL_PROTOCOL}/{directory}/{os.getpid()}-{secrets.token_hex(4)}.sock"
+
+
+def _protocol(endpoint: str) -> str:
+    return endpoint.split("/", 1)[0]
 
 
 @dataclass
@@ -89,7 +135,8 @@ def _explicit(options: ZenohOptions, env: dict[str, str]) -> dict[str, object]:
 
 
 def resolve(options: ZenohOptions | None = None, env: dict[str, str] | None = None) -> dict[str, object]:
-    """The effective settings as a dict: mode, connect, listen, config_file, multicast.
+    """The effective settings as a dict: mode, connect, listen, config_file, multicast, protocols
+    (the link protocols the session may use; None: Zenoh's default, all).
 
     With a config file, values not overridden by the environment or flags come from the file.
     """
@@ -111,21 +158,57 @@ def resolve(options: ZenohOptions | None = None, env: dict[str, str] | None = No
             "connect": get("connect/endpoints") or [],
             "listen": get("listen/endpoints") or [],
             "multicast": True if multicast is None else bool(multicast),  # Zenoh's default is on
+            "protocols": get("transport/link/protocols"),
         }
         base.update(explicit)
         return {**base, "config_file": config_file}
     mode = str(explicit.get("mode", "peer"))
-    connect = explicit.get("connect", [])
-    listen = explicit.get("listen", [])
-    if not listen and mode != "client":
-        listen = DEFAULT_ROUTER_LISTEN if mode == "router" else DEFAULT_LISTEN
+    connect = list(explicit.get("connect", []))  # type: ignore[call-overload]
+    listen = list(explicit.get("listen", []))  # type: ignore[call-overload]
+    if not listen and mode == "router":
+        listen = list(DEFAULT_ROUTER_LISTEN)
+    protocols = None
+    if not connect:  # multicast scouting: only local links, plus the protocols of explicit listeners
+        if mode != "client":
+            listen.append(local_endpoint(env))
+        protocols = list(dict.fromkeys([LOCAL_PROTOCOL, *(_protocol(e) for e in listen)]))
     return {
         "mode": mode,
         "connect": connect,
         "listen": listen,
         "config_file": None,
         "multicast": not connect,
+        "protocols": protocols,
     }
+
+
+def _wait_for_connect(conf: zenoh.Config) -> None:
+    """With connect endpoints, wait for them instead of failing when they are not up yet (or
+    restarting), retrying every 0.25 s to 2 s; settings a config file gives explicitly are kept."""
+    connect = json.loads(conf.get_json("connect/endpoints"))
+    if not connect:
+        return
+    log.info("connecting to %s (waiting until reachable)", connect)
+    for path, value in WAIT_SETTINGS.items():
+        if json.loads(conf.get_json(path)) is None:
+            conf.insert_json5(path, json.dumps(value))
+
+
+def _apply_user(conf: zenoh.Config, env: dict[str, str]) -> None:
+    """``$SOFIA_ZENOH_USER`` and the first line of ``$SOFIA_ZENOH_PASSWORD_FILE``: the identity
+    (``transport/auth/usrpwd``) a router's access control knows this process by."""
+    user = env.get(ENV_USER)
+    if not user:
+        return
+    path = env.get(ENV_PASSWORD_FILE)
+    if not path or not Path(path).is_file():
+        raise FileNotFoundError(f"${ENV_USER} is set but ${ENV_PASSWORD_FILE} ({path!r}) is not a file")
+    lines = Path(path).read_text().splitlines()
+    password = lines[0].strip() if lines else ""
+    if not password:
+        raise ValueError(f"password file {path!r} (${ENV_PASSWORD_FILE}) is empty")
+    conf.insert_json5("transport/auth/usrpwd/user", json.dumps(user))
+    conf.insert_json5("transport/auth/usrpwd/password", json.dumps(password))
 
 
 def zenoh_config(options: ZenohOptions | None = None, env: dict[str, str] | None = None) -> zenoh.Config:
@@ -144,6 +227,8 @@ def zenoh_config(options: ZenohOptions | None = None, env: dict[str, str] | None
         ):
             if name in explicit:
                 conf.insert_json5(path, json.dumps(explicit[name]))
+        _wait_for_connect(conf)
+        _apply_user(conf, env)
         return conf
     conf = zenoh.Config()
     conf.insert_json5("mode", json.dumps(s["mode"]))
@@ -151,18 +236,17 @@ def zenoh_config(options: ZenohOptions | None = None, env: dict[str, str] | None
         conf.insert_json5("connect/endpoints", json.dumps(s["connect"]))
     if s["listen"]:
         conf.insert_json5("listen/endpoints", json.dumps(s["listen"]))
+    if s["protocols"]:
+        conf.insert_json5("transport/link/protocols", json.dumps(s["protocols"]))
     if s["multicast"]:
         conf.insert_json5("scouting/multicast/enabled", "true")
         conf.insert_json5("scouting/multicast/interface", json.dumps("lo"))
+        if s["mode"] == "router":  # a router never dials what a HELLO advertises
+            conf.insert_json5("scouting/multicast/autoconnect", "[]")
     else:
         conf.insert_json5("scouting/multicast/enabled", "false")
-    if s["connect"]:
-        # wait for the router instead of failing when it is not up yet (or restarting), retrying
-        # every 0.25 s to 2 s; the same retry brings sessions back after a router restart
-        log.info("connecting to %s (waiting until reachable)", s["connect"])
-        conf.insert_json5("connect/timeout_ms", json.dumps(CONNECT_TIMEOUT_MS))
-        conf.insert_json5("connect/exit_on_failure", json.dumps(EXIT_ON_FAILURE))
-        conf.insert_json5("connect/retry", json.dumps(CONNECT_RETRY))
+    _wait_for_connect(conf)
+    _apply_user(conf, env)
     return conf
 
 

@@ -1,0 +1,159 @@
+"""The demo's closed loop in the simulated cell: franky-sim behind the arm service, the simulated
+D435 rendering from the live flange pose, the calibrator, the detector and the emulated gripper.
+
+Steps: the arm calibrates the camera by itself (result against the camera's true T_flange_cam),
+the detector finds the object on the board through that calibration (against the true centre),
+the arm picks it and places it (grasp pose against the true centre, gripper grasped, place reached).
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from pathlib import Path
+
+import numpy as np
+import zenoh
+from sofia_schemas import Keys, zenoh_config
+from sofia_schemas.client import QueryError, ask
+from sofia_schemas.launcher import Launcher, ServiceSpec
+from sofia_schemas.messages import ArmCommand, ArmPhase, ArmResult, Detection
+from sofia_schemas.transforms import rotation_angle
+
+from .bus import Collector, wait_until
+from .steps import sofia
+from .summary import Summary, say
+
+PLACE = (0.45, -0.25, 0.25)  # flange position of the place pose, base frame, metres
+SPEED = 1.0  # franky-sim at full relative speed (a real arm: the service's limits cap it)
+
+
+def _truth(scene: str, robot: str) -> dict:
+    out = sofia("camera", "sim-truth", "--sim-scene", scene, env_robot=robot, timeout=120)
+    if out.returncode != 0:
+        raise RuntimeError(f"sofia camera sim-truth: {out.stderr[-500:]}")
+    return dict(json.loads(out.stdout))
+
+
+def _camera(scene: str, log_dir: Path, robot: str) -> Launcher:
+    cam = Launcher([ServiceSpec("camera", ["camera", "serve", "--sim", "--sim-scene", scene], "camera")],
+                   log_dir, robot)  # fmt: skip
+    cam.start()
+    return cam
+
+
+def _healthy(session: zenoh.Session, launchers: list[Launcher], timeout: float) -> bool:
+    def ok() -> bool:
+        for la in launchers:
+            la.poll()
+        return all(s == "ok" for la in launchers for s in la.check_health(session).values())
+
+    return wait_until(ok, timeout)
+
+
+def _ask_arm(session: zenoh.Session, keys: Keys, cmd: ArmCommand) -> ArmResult:
+    def show(p: ArmPhase) -> None:
+        say(f"  {'ok  ' if p.status == 'done' else 'FAIL'} {p.name}: {p.reason}")
+
+    progress = Collector(session, keys.arm_progress, ArmPhase, show)
+    try:
+        return ask(session, keys.arm_command, ArmResult, cmd.model_dump_json(), timeout=cmd.timeout_s + 30)
+    finally:
+        progress.close()
+
+
+def calibrate(session: zenoh.Session, keys: Keys, T_true: np.ndarray, summary: Summary) -> bool:
+    say("autonomous calibration: the arm shows the blob to the simulated camera ...")
+    t0 = time.monotonic()
+    try:
+        res = _ask_arm(session, keys, ArmCommand(command="calibrate", speed=SPEED, timeout_s=400))
+    except QueryError as e:
+        summary.add("autonomous calibration", str(e), False)
+        return False
+    r = res.details.get("result")
+    if r is None:
+        summary.add("autonomous calibration", f"{res.status}: {res.reason}", False)
+        return False
+    T = np.array(r["matrix"])
+    dt_mm = 1e3 * float(np.linalg.norm(T[:3, 3] - T_true[:3, 3]))
+    dr_deg = float(np.degrees(rotation_angle(T[:3, :3].T @ T_true[:3, :3])))
+    say(
+        f"  T_flange_cam translation {np.round(T[:3, 3], 4).tolist()} m, truth {np.round(T_true[:3, 3], 4).tolist()} m"
+    )
+    say(f"  ROS 1: {r.get('ros1_static_transform', '')}")
+    ok = res.ok and dt_mm < 2.0 and dr_deg < 0.3
+    summary.add("autonomous calibration", f"{res.details.get('samples')} poses, error {dt_mm:.2f} mm / "
+                f"{dr_deg:.3f} deg, 1-sigma {max(r['std_translation_mm']):.2f} mm, "
+                f"{time.monotonic() - t0:.0f} s", ok)  # fmt: skip
+    return ok
+
+
+def detect(session: zenoh.Session, keys: Keys, center_true: np.ndarray, summary: Summary) -> bool:
+    dets = Collector(session, keys.detections, Detection)
+    found = wait_until(lambda: any(d.objects and d.transform for d in dets.items), 30)
+    dets.close()
+    if not found:
+        summary.add("detect (live camera)", f"no object detected in {len(dets)} detections", False)
+        return False
+    det = next(d for d in reversed(dets.items) if d.objects and d.transform)
+    err = 1e3 * float(np.linalg.norm(np.array(det.objects[0].center) - center_true))
+    summary.add("detect (live camera)", f"object on field {det.objects[0].field}, centre error {err:.1f} mm "
+                f"[{det.transform}]", err < 3.0)  # fmt: skip
+    return err < 3.0
+
+
+def pick_place(session: zenoh.Session, keys: Keys, center_true: np.ndarray, summary: Summary) -> None:
+    say(f"pick and place: the detected object to {list(PLACE)} ...")
+    try:
+        res = _ask_arm(session, keys, ArmCommand(command="pick_place", place_position=PLACE, speed=SPEED,
+                                                 timeout_s=240))  # fmt: skip
+    except QueryError as e:
+        summary.add("pick and place", str(e), False)
+        return
+    reached = res.details.get("reached", {})
+    offset = res.details.get("target", {}).get("fingertip_offset_m", 0.2)
+    if not res.ok or "grasp" not in reached or "lower" not in reached:
+        summary.add("pick and place", f"{res.status}: {res.reason}", False)
+        return
+    grasp_err = 1e3 * float(
+        np.linalg.norm(np.array(reached["grasp"]["position"]) - center_true - [0, 0, offset])
+    )
+    place_err = 1e3 * float(np.linalg.norm(np.array(reached["lower"]["position"]) - PLACE))
+    grasped = any(p.name == "grasp" and "grasped True" in p.reason for p in res.phases)
+    ok = grasped and grasp_err < 2.0 and place_err < 1.0
+    summary.add("pick and place", f"grasp {grasp_err:.2f} mm from the true centre + fingertip offset, grasped "
+                f"{grasped}, place reached within {place_err:.2f} mm, {res.duration_s:.0f} s", ok)  # fmt: skip
+
+
+def run_cell(out: Path, robot: str, board: Path, summary: Summary) -> None:
+    """The closed loop on its own key space (``{robot}-cell``), services started and stopped here."""
+    cell = f"{robot}-cell"
+    keys, log_dir = Keys(cell), out / "logs-cell"
+    calib_truth, board_truth = _truth("calibration", cell), _truth("board", cell)
+    obj = board_truth["objects"][0]
+    width_mm = 1e3 * min(obj["extents"][0], obj["extents"][1])
+    services = Launcher([
+        ServiceSpec("arm", ["arm", "serve", "--sim", "--max-speed", str(SPEED)], "arm"),
+        ServiceSpec("calibrator", ["calibrator", "serve", "--state-dir", str(out / "calibrator-cell")], "calibrator"),
+        ServiceSpec("detector", ["detector", "serve", "--board", str(board)], "detector"),
+        ServiceSpec("gripper", ["gripper", "serve", "--emulate", "--object-width", f"{width_mm:.1f}"], "gripper"),
+    ], log_dir, cell)  # fmt: skip
+    say(f"starting the simulated cell (franky-sim, camera --sim, logs in {log_dir}) ...")
+    services.start()
+    camera = _camera("calibration", log_dir, cell)
+    try:
+        with zenoh.open(zenoh_config()) as session:
+            healthy = _healthy(session, [services, camera], 120)
+            summary.add("cell up", "arm (franky-sim), camera (sim), calibrator, detector, gripper healthy"
+                        if healthy else "not all healthy", healthy)  # fmt: skip
+            if not healthy or not calibrate(session, keys, np.array(calib_truth["T_flange_cam"]), summary):
+                return
+            camera.stop()  # the board with the object in front of the same camera
+            camera = _camera("board", log_dir, cell)
+            _healthy(session, [camera], 60)
+            center = np.array(obj["center"])
+            if detect(session, keys, center, summary):
+                pick_place(session, keys, center, summary)
+    finally:
+        camera.stop()
+        services.stop()

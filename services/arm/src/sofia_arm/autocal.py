@@ -1,0 +1,210 @@
+"""Autonomous hand-eye calibration: the arm shows the blob to the camera from poses chosen to
+shrink the calibrator's covariance most, until the translation 1-sigma is below the target.
+
+Steps: (1) orient: without a guess of ``T_flange_cam``, the table plane seen from flange tilts about
+two axes gives the camera's rotation on the flange (:func:`sofia_arm.plan.rotation_from_table`);
+(2) find the blob (given, or seen on the way); (3) loop: rank candidate views of the blob by the
+covariance they leave (:func:`sofia_arm.plan.rank_candidates`), go to the best reachable one, wait
+until still, take the blob from the next camera frame with the flange pose of that instant, add the
+sample to the calibrator and re-solve; the estimate steers the next views.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+import zenoh
+from sofia_calibrator.blob import find_blob
+from sofia_calibrator.errors import CalibrationError
+from sofia_schemas.client import QueryError
+from sofia_schemas.keys import Keys
+from sofia_schemas.messages import ArmCommand, ArmResult, CalibrationResult
+from sofia_schemas.transforms import apply, invert
+
+from . import plan
+from .autocal_io import BusCalibrator, BusEye, CalibratorLink, Eye, Progress
+from .autocal_look import AutocalError, Looker
+from .autocal_options import AutocalOptions, to_arm_result
+from .motion import ArmMotion
+from .poses import Reach, in_image, solve_ik, views_of
+
+log = logging.getLogger("sofia.arm.autocal")
+__all__ = ["Autocal", "AutocalError", "AutocalOptions", "Outcome", "run_autocal"]
+MAX_OFFSET_M = 0.25  # a camera on the flange is closer than this to the flange origin
+TRUST_SIGMA_MM = 5.0  # the calibrator's estimate steers the views once the model predicts this 1-sigma
+# where the blob may be put in the image (right, down; degrees): off-centre views observe the
+# camera's rotation about its optical axis
+IMAGE_OFFSETS_DEG = np.array([[0, 0], [12, 0], [-12, 0], [0, 9], [0, -9], [9, 7], [-9, -7], [9, -7], [-9, 7]])
+D435_K = np.array([[615.0, 0.0, 319.5], [0.0, 615.0, 239.5], [0.0, 0.0, 1.0]])
+
+
+@dataclass
+class Outcome:
+    result: CalibrationResult | None
+    poses: int  # samples taken
+    visits: int  # poses visited for samples (failed ones included)
+    T_base_flange: list[np.ndarray] = field(default_factory=list)
+    stop_reason: str = ""
+
+
+class Autocal(Looker):
+    """One autonomous calibration run (:meth:`run`)."""
+
+    def __init__(self, arm: ArmMotion, eye: Eye, cal: CalibratorLink, opts: AutocalOptions,
+                 progress: Progress, reach: Reach | None = None, K: np.ndarray = D435_K,
+                 image_size: tuple[int, int] = (640, 480)) -> None:  # fmt: skip
+        super().__init__(arm, eye, opts, progress, reach or Reach())
+        self.cal, self.K, self.image_size = cal, K, image_size
+        self.samples_T: list[np.ndarray] = []
+        self.samples_p: list[np.ndarray] = []
+        self.trusted = False  # the calibrator's estimate steers the views (else the rough one)
+        self.result: CalibrationResult | None = None
+
+    # --- 2. the views ---------------------------------------------------------------------------
+    def candidates(self, first: bool) -> np.ndarray:
+        """(m, 4, 4) flange poses viewing the blob under the current estimate, blob in the image."""
+        assert self.T_fc is not None and self.p_base is not None
+        lo, hi = self.opts.distance_m
+        dists = np.array([max(lo, hi - 0.15), hi]) if first else np.linspace(lo, hi, 4)
+        offsets = IMAGE_OFFSETS_DEG[:5] / 2 if first else IMAGE_OFFSETS_DEG
+        T_bc = views_of(self.p_base, np.linspace(0, self.opts.max_tilt_deg, 4), np.arange(0, 360, 45),
+                        dists, np.arange(0, 360, 60), offsets)  # fmt: skip
+        T_bf = T_bc @ invert(self.T_fc)
+        p_cam = apply(invert(T_bf @ self.T_fc), np.broadcast_to(self.p_base, (len(T_bf), 3)))
+        keep = self.reach.in_box(T_bf[:, :3, 3]) & in_image(
+            p_cam, self.K, self.image_size, self.opts.margin_px
+        )
+        return np.asarray(T_bf[keep])
+
+    def information(self) -> np.ndarray:
+        assert self.T_fc is not None and self.p_base is not None
+        info = plan.prior_information()
+        if self.samples_T:
+            info = info + plan.information(np.array(self.samples_T), self.T_fc, self.p_base).sum(axis=0)
+        return info
+
+    def next_pose(self, tried: list[np.ndarray]) -> np.ndarray | None:
+        assert self.T_fc is not None and self.p_base is not None
+        cands = self.candidates(first=not self.trusted)
+        if tried:  # not the same view twice
+            d = np.linalg.norm(cands[:, None, :3, 3] - np.array(tried)[None, :, :3, 3], axis=2).min(axis=1)
+            cands = cands[d > 0.01]
+        ranked = plan.rank_candidates(self.information(), cands, self.T_fc, self.p_base)
+        for i in ranked.order[:25]:
+            ik = solve_ik(cands[i], self.arm.q(), self.reach, n_random_seeds=2)
+            if ik.ok:
+                return np.asarray(cands[i])
+        return None
+
+    def sample_at(self, T_target: np.ndarray, k: int) -> str:
+        """Visit a view and add its sample; returns what happened (one progress line)."""
+        if not self._go(T_target, f"pose {k}"):
+            return "unreachable"
+        T_bf, frame = self._look(f"pose {k}")
+        K = plan.intrinsics_of(frame.points_cam)
+        if K is not None:  # the views of the next poses use the camera's own image
+            self.K, self.image_size = K, (frame.points_cam.shape[1], frame.points_cam.shape[0])
+        if frame.rgb is None:
+            raise AutocalError(f"pose {k}", "the camera frames have no colour")
+        try:
+            blob = find_blob(frame.points_cam, frame.rgb)
+        except CalibrationError as e:
+            return f"no blob: {e}"
+        self.cal.add(frame.stamp_ns, blob.p_cam, T_bf, blob.confidence)
+        self.samples_T.append(T_bf)
+        self.samples_p.append(blob.p_cam)
+        if not self.trusted and self.T_fc is not None and len(self.samples_T) >= 3:
+            # the rotation is known (table): the offset is linear; kept when well conditioned and plausible
+            lin = plan.offset_given_rotation(
+                np.array(self.samples_T), self.T_fc[:3, :3], np.array(self.samples_p), min_singular=0.15
+            )
+            if lin is not None and np.linalg.norm(lin[0]) < MAX_OFFSET_M:
+                self.T_fc[:3, 3], self.p_base = lin
+        u, v = blob.centroid_px
+        text = f"blob at ({u:.0f}, {v:.0f}) px, {blob.p_cam[2]:.3f} m, confidence {blob.confidence:.2f}"
+        if len(self.samples_T) >= 3:
+            try:
+                self.result = self.cal.solve()
+            except QueryError as e:
+                return f"{text}; not solved yet: {e}"
+            self.trusted = self.trusted or self.model_sigma_mm().max() < TRUST_SIGMA_MM
+            if self.trusted:  # the views pin the calibrator's estimate: steer by it
+                self.T_fc = np.array(self.result.matrix)
+                self.p_base = np.array(self.result.target_base)
+            s = self.result.std_translation_mm
+            m = self.model_sigma_mm()
+            text += f"; 1-sigma t [{s[0]:.2f}, {s[1]:.2f}, {s[2]:.2f}] mm (model [{m[0]:.2f}, {m[1]:.2f}, {m[2]:.2f}])"
+        return text
+
+    def model_sigma_mm(self) -> np.ndarray:
+        """(3,) 1-sigma of t_fc (flange axes, mm) the D435 noise model predicts for the samples taken."""
+        return plan.translation_sigma_mm(self.information() - plan.prior_information() + 1e-9 * np.eye(9))
+
+    def sigma_mm(self) -> np.ndarray:
+        """(3,) the translation 1-sigma the stop rule uses: the calibrator's reported one, never below
+        the noise model's prediction (an a-posteriori noise scale from few samples is itself uncertain)."""
+        if self.result is None:
+            return np.full(3, np.inf)
+        return np.maximum(np.array(self.result.std_translation_mm), self.model_sigma_mm())
+
+    def done(self) -> bool:
+        return (
+            len(self.samples_T) >= self.opts.min_poses
+            and float(self.sigma_mm().max()) < self.opts.target_sigma_mm
+        )
+
+    def run(self) -> Outcome:
+        t0 = time.monotonic()
+        q_start = self.arm.q()
+        self.cal.reset()
+        if self.T_fc is None:
+            self.orient()
+        if self.p_base is None:
+            self.find()
+        visits, failures, tried = 0, 0, list[np.ndarray]()
+        stop = f"pose budget of {self.opts.max_poses} spent"
+        while len(self.samples_T) < self.opts.max_poses:
+            T = self.next_pose(tried)
+            if T is None:
+                stop = "no reachable view left"
+                break
+            tried.append(T)
+            visits += 1
+            t = time.monotonic()
+            text = self.sample_at(T, len(self.samples_T) + 1)
+            ok = text.startswith("blob")
+            failures = 0 if ok else failures + 1
+            name = f"pose {len(self.samples_T)}/{self.opts.max_poses}" if ok else f"visit {visits}"
+            self.progress.add(name, "done" if ok else "failed", text, time.monotonic() - t)
+            if failures >= self.opts.max_failures:
+                raise AutocalError("views", f"{failures} views in a row without a sample ({text})")
+            if self.done():
+                stop = f"translation 1-sigma below {self.opts.target_sigma_mm} mm"
+                break
+        if self.opts.return_to_start:
+            self.arm.move_joints(q_start, self.opts.speed)
+        log.info("autonomous calibration: %d samples, %d visits, %.1f s: %s", len(self.samples_T), visits,
+                 time.monotonic() - t0, stop)  # fmt: skip
+        return Outcome(self.result, len(self.samples_T), visits, self.samples_T, stop)
+
+
+def run_autocal(cmd: ArmCommand, arm: ArmMotion, session: zenoh.Session, keys: Keys) -> ArmResult:
+    """The arm service's ``calibrate`` command (options in ``cmd.calibrate``)."""
+    t0 = time.monotonic()
+    opts = AutocalOptions.from_dict(cmd.calibrate, cmd.speed)
+    progress = Progress(session, keys)
+    eye = BusEye(session, keys)
+    try:
+        run = Autocal(arm, eye, BusCalibrator(session, keys), opts, progress)
+        try:
+            outcome = run.run()
+        except AutocalError as e:
+            progress.add(e.step, "failed", e.reason)
+            return to_arm_result(arm, None, progress, time.monotonic() - t0, str(e))
+        return to_arm_result(arm, outcome, progress, time.monotonic() - t0, "")
+    finally:
+        eye.close()
+        progress.close()

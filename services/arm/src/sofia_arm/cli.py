@@ -1,0 +1,142 @@
+"""``sofia arm ...``: the service, and commands for people."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+from typing import Any
+
+from sofia_schemas.client import query
+from sofia_schemas.keys import ENCODING_JSON, Keys, default_robot
+from sofia_schemas.messages import ArmCommand, ArmState
+from sofia_schemas.zenoh_config import ZenohOptions, add_zenoh_args, zenoh_config
+
+
+def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+    p = sub.add_parser("arm", help="Franka arm: service (franky), motion commands, state")
+    gs = p.add_subparsers(dest="arm_cmd", required=True, metavar="ACTION")
+
+    s = gs.add_parser("serve", help="run the arm service")
+    robot = s.add_mutually_exclusive_group(required=True)
+    robot.add_argument("--robot-ip", help="the robot's FCI address (e.g. 172.16.0.2)")
+    robot.add_argument("--sim", action="store_true", help="start franky-sim (MuJoCo) and connect to it")
+    s.add_argument("--config", type=Path, help="arm YAML/JSON config (limits, workspace box, margins)")
+    s.add_argument("--model", choices=("panda", "fr3"), help="joint limits of this robot (default panda)")
+    s.add_argument("--max-speed", type=float, metavar="F",
+                   help="relative velocity, acceleration and jerk limit, (0, 1] (default 0.1)")  # fmt: skip
+    s.add_argument("--rate", type=float, metavar="HZ", help="flange pose / joint state rate (default 200)")
+    add_zenoh_args(s)
+    s.set_defaults(func=_serve)
+
+    def command(name: str, help: str) -> argparse.ArgumentParser:
+        a = gs.add_parser(name, help=help)
+        add_zenoh_args(a)
+        a.add_argument("--robot", default=None, help="robot id (default $SOFIA_ROBOT or panda)")
+        a.add_argument("--timeout", type=float, default=60.0, help="command timeout, s")
+        if name not in ("state", "stop", "recover"):
+            a.add_argument("--speed", type=float, default=0.1, help="relative speed, (0, 1] (default 0.1)")
+        return a
+
+    m = command("move", "move to joint positions (rad) or a flange pose (m, quaternion x y z w)")
+    target = m.add_mutually_exclusive_group(required=True)
+    target.add_argument("--joints", type=float, nargs=7, metavar="Q", help="7 joint positions, rad")
+    target.add_argument(
+        "--pose", type=float, nargs=7, metavar="V", help="x y z qx qy qz qw (flange, base frame)"
+    )
+    m.set_defaults(func=_command, action="move")
+    for name, help in (("home", "move to the home joint positions"), ("stop", "stop any motion now"),
+                       ("recover", "reconnect and run the robot's automatic error recovery")):  # fmt: skip
+        command(name, help).set_defaults(func=_command, action=name)
+    pp = command("pick-place", "pick the latest detected object (pick/target) and place it")
+    pp.add_argument("--place", type=float, nargs=3, metavar=("X", "Y", "Z"), required=True,
+                    help="flange position to place at, base frame, m")  # fmt: skip
+    pp.set_defaults(func=_command, action="pick-place")
+    st = command("state", "print the arm's state")
+    st.set_defaults(func=_state)
+
+
+def _serve(args: argparse.Namespace) -> int:
+    from .config import load_config
+    from .service import ServiceConfig, main
+
+    f = args.max_speed
+    arm = load_config(args.config, model=args.model, max_velocity=f, max_acceleration=f, max_jerk=f,
+                      state_rate_hz=args.rate)  # fmt: skip
+    conf = ServiceConfig(arm=arm, robot=default_robot(), zenoh=ZenohOptions.from_args(args),
+                         robot_ip=args.robot_ip, sim=args.sim)  # fmt: skip
+    return main(conf)
+
+
+def build_command(args: argparse.Namespace) -> ArmCommand:
+    fields: dict[str, Any] = {"timeout_s": args.timeout}
+    if hasattr(args, "speed"):
+        fields["speed"] = args.speed
+    if args.action == "move" and args.joints:
+        fields.update(command="move_joints", q=args.joints)
+    elif args.action == "move":
+        fields.update(command="move_pose", position=args.pose[:3], quaternion_xyzw=args.pose[3:])
+    elif args.action == "pick-place":
+        fields.update(command="pick_place", place_position=args.place)
+    else:
+        fields["command"] = args.action
+    return ArmCommand.model_validate(fields)
+
+
+def _ask(args: argparse.Namespace, key: str, payload: bytes | None, timeout: float) -> tuple[int, str]:
+    import zenoh
+
+    with zenoh.open(zenoh_config(ZenohOptions.from_args(args))) as session:
+        replies = query(session, key, payload, timeout=timeout, encoding=ENCODING_JSON if payload else None)
+    if not replies:
+        return 3, f"no arm service answered on {key}"
+    reply = replies[0]
+    if reply.ok is not None:
+        return 0, reply.ok.payload.to_bytes().decode()
+    assert reply.err is not None
+    return 1, reply.err.payload.to_bytes().decode(errors="replace")
+
+
+def _command(args: argparse.Namespace) -> int:
+    try:
+        cmd = build_command(args)
+    except ValueError as e:
+        print(f"sofia arm {args.action}: {e}", file=sys.stderr)
+        return 2
+    key = Keys(args.robot or default_robot()).arm_command
+    code, text = _ask(args, key, cmd.to_json_bytes(), cmd.timeout_s + 10.0)
+    if code:
+        print(f"sofia arm {args.action}: {text}", file=sys.stderr)
+        return code
+    result = json.loads(text)
+    print(json.dumps(result))
+    return 0 if result.get("ok") else 1
+
+
+def _state(args: argparse.Namespace) -> int:
+    """The newest ArmState (published a few times a second)."""
+    import zenoh
+
+    key = Keys(args.robot or default_robot()).arm_state
+    with zenoh.open(zenoh_config(ZenohOptions.from_args(args))) as session:
+        sub = session.declare_subscriber(key)
+        sample = sub.recv() if args.timeout <= 0 else _recv(sub, args.timeout)
+    if sample is None:
+        print(f"sofia arm state: nothing published on {key} within {args.timeout:g} s", file=sys.stderr)
+        return 3
+    state = ArmState.model_validate_json(sample.payload.to_bytes())
+    print(state.model_dump_json(indent=2, exclude={"last_result"} if state.last_result is None else None))
+    return 0 if state.mode != "error" else 1
+
+
+def _recv(sub: Any, timeout: float) -> Any:
+    import time
+
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        sample = sub.try_recv()
+        if sample is not None:
+            return sample
+        time.sleep(0.02)
+    return None

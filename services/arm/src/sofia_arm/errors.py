@@ -1,0 +1,55 @@
+"""Errors of the arm package; each message says what was wrong and with which value."""
+
+from __future__ import annotations
+
+from sofia_schemas.errors import SofiaError
+
+
+class ArmError(SofiaError):
+    """Base class of arm errors."""
+
+
+class ConfigError(ArmError, ValueError):
+    """The arm configuration is missing or invalid."""
+
+
+class TargetRefused(ArmError, ValueError):  # noqa: N818
+    """A motion target breaks a safety rule; nothing moved."""
+
+
+class OutsideWorkspace(TargetRefused):
+    def __init__(self, what: str, p_base: object, low: object, high: object) -> None:
+        super().__init__(
+            f"{what}: flange position {p_base} m is outside the workspace box [{low}, {high}] m (base frame)"
+        )
+
+
+class OutsideJointLimits(TargetRefused):
+    def __init__(self, joint: int, value: float, low: float, high: float, margin: float) -> None:
+        super().__init__(
+            f"joint {joint} target {value:.4f} rad is outside the allowed range [{low:.4f}, {high:.4f}] rad "
+            f"(joint limits minus a margin of {margin:.3f} rad)"
+        )
+
+
+class Unreachable(TargetRefused):
+    def __init__(self, what: str, reason: str) -> None:
+        super().__init__(f"{what} is not reachable: {reason}")
+
+
+class NotReady(ArmError):  # noqa: N818
+    """The arm cannot move now (not connected, in error, the gripper in error)."""
+
+    def __init__(self, reason: str) -> None:
+        super().__init__(f"arm not ready: {reason}")
+
+
+class Unavailable(ArmError):  # noqa: N818
+    """A command whose implementation is not installed."""
+
+    def __init__(self, command: str, module: str, cause: object) -> None:
+        super().__init__(f"{command} is not available: module {module} could not be loaded ({cause})")
+
+
+class SimError(ArmError):
+    """franky-sim could not be started."""

@@ -1,0 +1,206 @@
+"""Pick and place: from a :class:`PickTarget` (given, or the latest the detector published) to a
+place pose, in phases: open, pre-grasp, descend, grasp, lift, move, lower, release, retreat.
+
+The approach to the pre-grasp and the move over the place pose are joint motions to an IK
+solution (any start pose); descending, lifting, lowering and retreating are straight Cartesian
+lines along the base z axis. The gripper is driven through ``sofia/{robot}/gripper/command``;
+a grasp that does not report ``grasped`` ends the sequence (the arm backs off upwards).
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from collections.abc import Callable
+
+import numpy as np
+import zenoh
+from sofia_schemas.client import QueryError, ask
+from sofia_schemas.keys import Keys
+from sofia_schemas.messages import ArmCommand, ArmResult, GripperCommand, GripperResult, PickTarget
+from sofia_schemas.transforms import make_transform, matrix_to_quat_xyzw
+
+from .autocal_io import Progress
+from .motion import ArmMotion
+from .poses import Reach, pose_distance, solve_ik
+
+TARGET_WAIT_S = 5.0  # how long to wait for a pick target on the bus when none is given
+LIFT_M = 0.10  # above the grasp and the place pose
+GRASP_FORCE_N = 10.0
+GRIPPER_ATTEMPTS = 4
+NEAR_M, NEAR_DEG = 0.001, 0.5  # a move the arm reports off its tolerance still serves this close
+
+
+class PhaseFailed(Exception):  # noqa: N818 - control flow inside this module only
+    def __init__(self, phase: str, reason: str, status: str = "failed") -> None:
+        super().__init__(f"{phase}: {reason}")
+        self.phase, self.reason, self.status = phase, reason, status
+
+
+def latest_target(session: zenoh.Session, keys: Keys, timeout_s: float = TARGET_WAIT_S) -> PickTarget:
+    """The next :class:`PickTarget` published on ``pick/target`` within ``timeout_s``."""
+    got: list[PickTarget] = []
+    event = threading.Event()
+
+    def on_target(s: zenoh.Sample) -> None:
+        try:
+            got.append(PickTarget.model_validate_json(s.payload.to_bytes()))
+            event.set()
+        except ValueError:
+            pass
+
+    sub = session.declare_subscriber(keys.pick_target, on_target)
+    try:
+        if not event.wait(timeout_s):
+            raise PhaseFailed("target", f"no pick target given and none published on {keys.pick_target} "
+                                        f"within {timeout_s} s (is the detector running and seeing an object?)")  # fmt: skip
+        return got[-1]
+    finally:
+        sub.undeclare()
+
+
+def plan_poses(target: PickTarget, place_position: np.ndarray, place_q_xyzw: np.ndarray | None,
+               lift_m: float = LIFT_M) -> dict[str, np.ndarray]:  # fmt: skip
+    """(4, 4) flange poses (base frame) of each phase: pregrasp, grasp, lift, above_place, place.
+
+    The place orientation defaults to the grasp orientation (the object keeps its yaw).
+    """
+    R = make_transform(np.zeros(3), np.array(target.rotation_xyzw))[:3, :3]
+    R_place = R if place_q_xyzw is None else make_transform(np.zeros(3), place_q_xyzw)[:3, :3]
+    up = np.array([0.0, 0.0, 1.0])
+
+    def pose(R_: np.ndarray, p: np.ndarray) -> np.ndarray:
+        T = np.eye(4)
+        T[:3, :3], T[:3, 3] = R_, p
+        return T
+
+    grasp = np.array(target.grasp_translation)
+    return {
+        "pregrasp": pose(R, np.array(target.pregrasp_translation)),
+        "grasp": pose(R, grasp),
+        "lift": pose(R, grasp + lift_m * up),
+        "above_place": pose(R_place, place_position + lift_m * up),
+        "place": pose(R_place, place_position),
+    }
+
+
+class PickPlace:
+    def __init__(self, arm: ArmMotion, gripper: Callable[[GripperCommand], GripperResult], speed: float,
+                 progress: Progress, reach: Reach | None = None) -> None:  # fmt: skip
+        self.arm, self.gripper, self.speed, self.progress = arm, gripper, speed, progress
+        self.reach = reach or Reach(joint_margin=0.05, box_min=(0.15, -0.6, 0.05), box_max=(0.85, 0.6, 0.9))
+        self.reached: dict[str, np.ndarray] = {}  # measured flange pose at the end of each phase
+
+    def _phase(self, name: str, run: Callable[[], str]) -> None:
+        t0 = time.monotonic()
+        try:
+            text = run()
+        except PhaseFailed as e:
+            self.progress.add(name, "failed", e.reason, time.monotonic() - t0)
+            raise
+        self.progress.add(name, "done", text, time.monotonic() - t0)
+
+    def _moved(self, name: str, res: ArmResult, T_target: np.ndarray) -> str:
+        """The phase's text; PhaseFailed unless the arm ended at the target (or, when the arm
+        reports a failed settle, within ``NEAR_M`` / ``NEAR_DEG`` of it, measured)."""
+        if not res.ok and res.status != "failed":
+            raise PhaseFailed(name, f"{res.status}: {res.reason}", res.status)
+        self.arm.wait_still(5.0)
+        T = self.arm.T_base_flange()
+        dt, dr = pose_distance(T, T_target)
+        if not res.ok and (dt > NEAR_M or dr > np.radians(NEAR_DEG)):
+            raise PhaseFailed(name, f"{res.status}: {res.reason}", res.status)
+        self.reached[name] = T
+        return f"flange at {np.round(T[:3, 3], 4).tolist()} m, {dt * 1e3:.2f} mm / {np.degrees(dr):.3f} deg from the target"
+
+    def joint_move(self, name: str, T: np.ndarray) -> str:
+        ik = solve_ik(T, self.arm.q(), self.reach)
+        if not ik.ok:
+            raise PhaseFailed(name, ik.reason)
+        return self._moved(name, self.arm.move_joints(ik.q, self.speed), T)
+
+    def line(self, name: str, T: np.ndarray) -> str:
+        return self._moved(name, self.arm.move_pose(T, self.speed), T)
+
+    def grip(self, name: str, cmd: GripperCommand, need_grasp: bool = False) -> str:
+        torque_off = False
+        for attempt in range(GRIPPER_ATTEMPTS):
+            try:
+                res = self.gripper(cmd)
+                break
+            except QueryError as e:  # an error reply (a lost status packet): the line may recover
+                if attempt == GRIPPER_ATTEMPTS - 1:
+                    raise PhaseFailed(name, f"gripper: {e}") from e
+                time.sleep(1.0)
+                torque_off = torque_off or "torque is off" in str(e)
+                if torque_off:  # the servo's watchdog stopped it: enable it again
+                    try:
+                        self.gripper(GripperCommand(action="torque", enable=True))
+                    except QueryError:
+                        pass
+        if not res.ok and not (need_grasp and res.grasped):
+            raise PhaseFailed(name, f"gripper {cmd.action}: {res.reason}")
+        opening = "?" if res.opening_mm is None else f"{res.opening_mm:.1f}"
+        if need_grasp and not res.grasped:
+            raise PhaseFailed(name, f"nothing grasped ({res.reason}, opening {opening} mm)")
+        self.reached[name] = self.arm.T_base_flange()
+        grasped = "" if res.grasped is None else f", grasped {res.grasped}"
+        return f"gripper {res.reason}, opening {opening} mm{grasped}"
+
+    def run(self, target: PickTarget, place: dict[str, np.ndarray]) -> None:
+        poses = plan_poses(target, place["position"], place.get("quaternion_xyzw"))
+        opening = GripperCommand(action="move", opening_mm=target.opening_mm)
+        self._phase("open", lambda: self.grip("open", opening))
+        self._phase("pregrasp", lambda: self.joint_move("pregrasp", poses["pregrasp"]))
+        self._phase("descend", lambda: self.line("descend", poses["grasp"]))
+        grasp = GripperCommand(action="grasp", force_n=GRASP_FORCE_N)
+        try:
+            self._phase("grasp", lambda: self.grip("grasp", grasp, need_grasp=True))
+        except PhaseFailed:
+            self.arm.move_pose(poses["pregrasp"], self.speed)  # back off before reporting
+            raise
+        self._phase("lift", lambda: self.line("lift", poses["lift"]))
+        self._phase("move", lambda: self.joint_move("move", poses["above_place"]))
+        self._phase("lower", lambda: self.line("lower", poses["place"]))
+        self._phase("release", lambda: self.grip("release", GripperCommand(action="release")))
+        self._phase("retreat", lambda: self.line("retreat", poses["above_place"]))
+
+
+def _pose_dict(T: np.ndarray) -> dict[str, list[float]]:
+    return {"position": T[:3, 3].tolist(), "quaternion_xyzw": matrix_to_quat_xyzw(T[:3, :3]).tolist()}
+
+
+def run_pick_place(cmd: ArmCommand, arm: ArmMotion, session: zenoh.Session, keys: Keys) -> ArmResult:
+    """The arm service's ``pick_place`` command."""
+    t0 = time.monotonic()
+    progress = Progress(session, keys)
+
+    def gripper(c: GripperCommand) -> GripperResult:
+        return ask(session, keys.gripper_command, GripperResult, c.model_dump_json(), timeout=c.timeout_s + 5)
+
+    run = PickPlace(arm, gripper, cmd.speed, progress)
+    error, status = "", "done"
+    target = cmd.target
+    try:
+        if target is None:
+            target = latest_target(session, keys)
+            progress.add("target", "done", f"object at {np.round(target.object_center, 4).tolist()} m")
+        assert cmd.place_position is not None  # ArmCommand validates it for pick_place
+        place = {"position": np.array(cmd.place_position)}
+        if cmd.place_quaternion_xyzw is not None:
+            place["quaternion_xyzw"] = np.array(cmd.place_quaternion_xyzw)
+        run.run(target, place)
+    except PhaseFailed as e:
+        error, status = str(e), e.status
+    finally:
+        progress.close()
+    T = arm.T_base_flange()
+    details: dict[str, object] = {"reached": {name: _pose_dict(Tn) for name, Tn in run.reached.items()}}
+    if target is not None:
+        details["target"] = target.model_dump(mode="json")
+    return ArmResult(
+        ok=not error, command="pick_place", status=status, reason=error,  # type: ignore[arg-type]
+        q=tuple(float(v) for v in arm.q()), position=tuple(float(v) for v in T[:3, 3]),  # type: ignore[arg-type]
+        quaternion_xyzw=tuple(float(v) for v in matrix_to_quat_xyzw(T[:3, :3])),  # type: ignore[arg-type]
+        duration_s=round(time.monotonic() - t0, 3), phases=progress.phases, details=details,
+    )  # fmt: skip

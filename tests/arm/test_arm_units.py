@@ -1,0 +1,130 @@
+"""Units of the arm package without a robot: the clock mapping, safety rules, inverse kinematics,
+the shared Panda kinematics, messages and the command line."""
+
+from __future__ import annotations
+
+import argparse
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from sofia_arm.cli import build_command, register
+from sofia_arm.clock import ClockMap
+from sofia_arm.config import ArmConfig, load_config
+from sofia_arm.errors import ConfigError, OutsideJointLimits, OutsideWorkspace, TargetRefused, Unreachable
+from sofia_arm.safety import Safety, pose_error, solve_ik
+from sofia_schemas.kinematics import Q_MAX, Q_MIN, panda_fk, quat_xyzw_to_rotation, rotation_to_quat_xyzw
+from sofia_schemas.messages import ArmCommand
+
+HOME = np.array(ArmConfig().home_q)
+
+
+@given(st.integers(0, 10**12), st.lists(st.integers(0, 3_000_000), min_size=20, max_size=200))
+def test_clock_recovers_the_offset_from_delayed_states(offset_ns: int, delays: list[int]) -> None:
+    clock = ClockMap()
+    delays[len(delays) // 2] = 0  # one state arrives without delay
+    stamps = [clock.update(k * 1_000_000, k * 1_000_000 + offset_ns + d) for k, d in enumerate(delays)]
+    true = [k * 1_000_000 + offset_ns for k in range(len(delays))]
+    assert all(s >= t for s, t in zip(stamps, true, strict=True))  # never earlier than the truth
+    assert stamps[-1] == true[-1]  # once the undelayed state was seen, exact
+    assert np.all(np.diff(stamps) > 0)
+
+
+def test_clock_of_a_slow_robot_stays_within_the_lag_bound_and_restarts() -> None:
+    clock = ClockMap()
+    received = [k * 10_000_000 for k in range(300)]  # 100 states per second of our time ...
+    stamps = [clock.update(k * 1_000_000, r) for k, r in enumerate(received)]  # ... 1 ms apart on its clock
+    lags = np.array(received) - np.array(stamps)
+    assert lags.max() <= clock.max_lag_ns and np.all(np.diff(stamps) > 0)
+    assert clock.update(0, received[-1] + 1_000_000) == received[-1] + 1_000_000  # robot restarted
+    assert clock.resets == 1
+
+
+def test_safety_refuses_with_the_value_and_the_rule() -> None:
+    safety = Safety(ArmConfig(joint_margin_rad=0.1))
+    with pytest.raises(OutsideJointLimits, match=r"joint 4 target -0.1000 rad .* margin of 0.100"):
+        safety.check_joint_target(np.array([0, 0, 0, -0.1, 0, 1.5, 0]))
+    with pytest.raises(OutsideWorkspace, match="outside the workspace box"):
+        safety.check_joint_target(np.array([2.5, 0, 0, -1.5708, 0, 1.5708, 0.7854]))  # behind the base
+    with pytest.raises(TargetRefused, match="7 values"):
+        safety.check_joint_target(np.zeros(6))
+    with pytest.raises(TargetRefused, match="not all finite"):
+        safety.check_joint_target(np.full(7, np.nan))
+    T = panda_fk(HOME)
+    T[:3, 3] = [0.84, 0.59, 0.89]  # inside the box, out of reach
+    with pytest.raises(Unreachable, match="not reachable"):
+        safety.check_pose_target(T, HOME)
+    T[2, 3] = 0.01
+    with pytest.raises(OutsideWorkspace, match=r"\[0.84, 0.59, 0.01\]"):
+        safety.check_pose_target(T, HOME)
+    assert np.allclose(safety.check_joint_target(HOME), HOME)
+
+
+@settings(max_examples=25, deadline=None)
+@given(st.lists(st.floats(-0.5, 0.5), min_size=7, max_size=7))
+def test_ik_finds_the_pose_of_joint_positions_near_home(dq: list[float]) -> None:
+    q_true = np.clip(HOME + np.array(dq), Q_MIN + 0.1, Q_MAX - 0.1)
+    T = panda_fk(q_true)
+    q = solve_ik(T, HOME, Q_MIN, Q_MAX)
+    assert q is not None
+    dp, dr = pose_error(T, panda_fk(q))
+    assert dp < 1e-5 and dr < 1e-4
+
+
+def test_shared_kinematics_quaternions_round_trip_and_calibrator_uses_them() -> None:
+    rng = np.random.default_rng(3)
+    q = rng.normal(size=(500, 4))
+    q /= np.linalg.norm(q, axis=1, keepdims=True)
+    q[q[:, 3] < 0] *= -1
+    assert np.allclose(rotation_to_quat_xyzw(quat_xyzw_to_rotation(q)), q, atol=1e-12)
+    from sofia_calibrator.fk import panda_fk as calibrator_fk
+
+    qs = rng.uniform(Q_MIN, Q_MAX, size=(20, 7))
+    assert np.array_equal(calibrator_fk(qs), panda_fk(qs))
+
+
+def test_config_file_and_messages(tmp_path: object) -> None:
+    from pathlib import Path
+
+    path = Path(str(tmp_path)) / "arm.yaml"
+    path.write_text("model: fr3\nmax_velocity: 0.2\nworkspace_min: [0.2, -0.5, 0.1]\n")
+    c = load_config(path, max_acceleration=0.3)
+    assert c.model == "fr3" and c.max_velocity == 0.2 and c.max_acceleration == 0.3 and c.max_jerk == 0.1
+    path.write_text("max_velocity: 2\n")
+    with pytest.raises(ConfigError, match="max_velocity"):
+        load_config(path)
+    with pytest.raises(ValueError, match="move_pose needs position"):
+        ArmCommand(command="move_pose", position=(0.5, 0, 0.3))
+    with pytest.raises(ValueError, match="norm"):
+        ArmCommand(command="move_pose", position=(0.5, 0, 0.3), quaternion_xyzw=(1, 1, 0, 0))
+
+
+def test_people_commands_build_arm_commands() -> None:
+    parser = argparse.ArgumentParser()
+    register(parser.add_subparsers())
+    args = parser.parse_args(
+        ["arm", "move", "--joints", "0", "0", "0", "-1.5", "0", "1.5", "0.7", "--speed", "0.2"]
+    )
+    cmd = build_command(args)
+    assert cmd.command == "move_joints" and cmd.q == (0, 0, 0, -1.5, 0, 1.5, 0.7) and cmd.speed == 0.2
+    cmd = build_command(parser.parse_args(["arm", "pick-place", "--place", "0.5", "0.2", "0.3"]))
+    assert cmd.command == "pick_place" and cmd.place_position == (0.5, 0.2, 0.3)
+    cmd = build_command(parser.parse_args(["arm", "move", "--pose", "0.5", "0", "0.4", "1", "0", "0", "0"]))
+    assert cmd.command == "move_pose" and cmd.quaternion_xyzw == (1, 0, 0, 0)
+    assert build_command(parser.parse_args(["arm", "home"])).command == "home"
+
+
+def test_sofia_up_runs_the_arm_when_asked() -> None:
+    from sofia_schemas.launcher import add_up_args, default_specs
+
+    parser = argparse.ArgumentParser()
+    add_up_args(parser)
+    specs = {s.name: s for s in default_specs(parser.parse_args([]))}
+    assert "arm" not in specs  # the robot moves only when asked for
+    specs = {s.name: s for s in default_specs(parser.parse_args(["--services", "detector,arm"]))}
+    assert specs["arm"].args == ["arm", "serve", "--sim"] and specs["arm"].status == "arm"
+    specs = {
+        s.name: s for s in default_specs(parser.parse_args(["--services", "arm", "--robot-ip", "172.16.0.2"]))
+    }
+    assert specs["arm"].args == ["arm", "serve", "--robot-ip", "172.16.0.2"]

@@ -1,0 +1,83 @@
+"""Autonomous calibration, the planning loop in one process: a kinematic Panda, the blob sheet
+rendered by the simulated D435 through a true T_flange_cam, the calibrator library."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+from sofia_arm.autocal import Autocal, AutocalError, AutocalOptions
+from sofia_arm.autocal_io import LocalCalibrator, Progress
+from sofia_arm.autocal_sim import KinematicArm, SheetEye
+from sofia_calibrator.diagnostics import check_motion
+from sofia_schemas.transforms import rotation_angle
+
+BLOB = np.array([0.5, 0.05, 0.0005])
+
+
+def _T(rotvec_deg: list[float], t: list[float]) -> np.ndarray:
+    T = np.eye(4)
+    T[:3, :3] = Rotation.from_rotvec(np.radians(rotvec_deg)).as_matrix()
+    T[:3, 3] = t
+    return T
+
+
+def _run(T_fc: np.ndarray, **opts: object) -> tuple[Autocal, Progress, KinematicArm]:
+    arm = KinematicArm()
+    progress = Progress(None, None)
+    run = Autocal(
+        arm, SheetEye(arm, T_fc, BLOB, seed=1), LocalCalibrator(), AutocalOptions.from_dict(opts), progress
+    )
+    return run, progress, arm
+
+
+@pytest.mark.parametrize(
+    "T_fc",
+    [
+        # the camera looks back along the flange's -z axis, tilted and offset: no guess could assume it
+        pytest.param(_T([150.0, 40.0, -30.0], [0.06, -0.05, 0.03]), id="looking-back"),
+        pytest.param(_T([10.0, -60.0, 80.0], [-0.07, 0.02, 0.08]), id="sideways", marks=pytest.mark.slow),
+    ],
+)
+def test_autonomous_calibration_reaches_the_truth_within_the_budget(T_fc: np.ndarray) -> None:
+    run, progress, arm = _run(T_fc)
+    out = run.run()
+    assert out.result is not None
+    T_est = np.array(out.result.matrix)
+    err_mm = 1e3 * np.linalg.norm(T_est[:3, 3] - T_fc[:3, 3])
+    err_deg = float(np.degrees(rotation_angle(T_est[:3, :3].T @ T_fc[:3, :3])))
+    assert err_mm < 1.0 and err_deg < 0.2, (err_mm, err_deg, [p.reason for p in progress.phases])
+    assert out.poses <= run.opts.max_poses and "below 1.0 mm" in out.stop_reason
+    assert float(run.sigma_mm().max()) < 1.0
+    check_motion(np.array(out.T_base_flange))  # rotations about two axes at least
+    # every pose had the blob in the image, taken at 0.3-0.6 m (a sample is only added when found)
+    names = [p.name for p in progress.phases]
+    assert names[:2] == ["orient", "find blob"] and sum(n.startswith("pose ") for n in names) == out.poses
+    np.testing.assert_allclose(arm.q(), KinematicArm().q())  # back at the start
+
+
+def test_a_given_blob_and_guess_skip_the_search() -> None:
+    T_fc = _T([0.0, 0.0, 90.0], [0.065, 0.0, 0.045])
+    guess = [0.05, 0.01, 0.03, *Rotation.from_rotvec(np.radians([3.0, -2.0, 88.0])).as_quat()]
+    run, progress, _ = _run(T_fc, blob=[0.52, 0.03, 0.0], guess=guess, min_poses=3, target_sigma_mm=5.0)
+    out = run.run()
+    assert next(p.name for p in progress.phases).startswith("pose ")  # no orient, no search
+    assert out.result is not None and 3 <= out.poses < 8
+
+
+def test_bad_options_are_refused_with_their_name() -> None:
+    with pytest.raises(ValueError, match="unknown calibrate option"):
+        AutocalOptions.from_dict({"poses": 3})
+    with pytest.raises(ValueError, match="blob must be 3 finite"):
+        AutocalOptions.from_dict({"blob": [0.1, float("nan"), 0.0]})
+    with pytest.raises(ValueError, match="distance_m"):
+        AutocalOptions.from_dict({"distance_m": [0.6, 0.3]})
+
+
+def test_no_blob_in_view_fails_with_the_reason() -> None:
+    """The sheet far out of reach: the table is seen, the blob never; a clear error."""
+    arm = KinematicArm()
+    eye = SheetEye(arm, _T([0.0, 0.0, 0.0], [0.0, 0.0, 0.05]), np.array([0.5, 0.0, -50.0]))
+    run = Autocal(arm, eye, LocalCalibrator(), AutocalOptions(), Progress(None, None))
+    with pytest.raises(AutocalError, match="blob was not seen around the start pose"):
+        run.run()

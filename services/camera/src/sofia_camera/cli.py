@@ -1,0 +1,185 @@
+"""``sofia camera ...``: the camera service, the connected cameras, recording, the simulation's truth."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+from sofia_schemas.keys import default_robot
+from sofia_schemas.zenoh_config import ZenohOptions, add_zenoh_args
+
+from .errors import CameraError
+
+MODES = ("640x480", "848x480", "1280x720")
+
+
+def _add_sim_args(p: argparse.ArgumentParser) -> None:
+    g = p.add_argument_group("simulation (--sim)")
+    g.add_argument(
+        "--sim-scene",
+        choices=("calibration", "board"),
+        default="calibration",
+        help="the blob sheet for calibration, or the board with objects (default calibration)",
+    )
+    g.add_argument(
+        "--sim-T-flange-cam",
+        metavar="'x y z qx qy qz qw'|FILE",
+        dest="sim_T_flange_cam",
+        help="true flange -> colour optical frame (metres, quaternion x y z w) or a YAML/JSON "
+        "file with matrix or translation + quaternion_xyzw (default: the synthetic data's)",
+    )
+    g.add_argument(
+        "--sim-target",
+        nargs=3,
+        type=float,
+        metavar=("X", "Y", "Z"),
+        help="calibration scene: blob centre in the base frame, metres (default 0.45 0.25 -0.0495)",
+    )
+    g.add_argument(
+        "--sim-blob-radius", type=float, default=0.015, metavar="M", help="blob radius (default 0.015)"
+    )
+    g.add_argument("--sim-seed", type=int, default=0, help="board scene and noise seed (default 0)")
+    g.add_argument(
+        "--sim-kind",
+        choices=("one", "two", "nonred", "empty"),
+        default="one",
+        help="board scene: objects on the board (default one, on a red field)",
+    )
+    g.add_argument("--sim-board", type=Path, metavar="FILE", help="board YAML/JSON (default: the package's)")
+    g.add_argument(
+        "--sim-noise",
+        choices=("d435", "stereo", "none"),
+        default="d435",
+        help="d435: depth noise, dropouts, edge removal; stereo: the active-stereo model (right-imager "
+        "shadows, flying pixels, disparity steps; slower); none: exact geometry (default d435)",
+    )
+
+
+def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+    p = sub.add_parser("camera", help="RealSense D435: service, list, record, simulation")
+    cs = p.add_subparsers(dest="camera_cmd", required=True, metavar="ACTION")
+
+    s = cs.add_parser("serve", help="publish the camera's organized clouds and camera info")
+    s.add_argument("--serial", help="camera serial number (default: the first connected)")
+    s.add_argument("--width", type=int, default=640, help="640, 848 or 1280 (default 640)")
+    s.add_argument("--height", type=int, default=480, help="480 or 720 (default 480)")
+    s.add_argument("--fps", type=int, default=30, help="6, 15 or 30 (default 30)")
+    s.add_argument(
+        "--preset", help="visual preset: default, high_accuracy, high_density, medium_density, hand"
+    )
+    s.add_argument(
+        "--filters",
+        default="none",
+        help="comma-separated librealsense filters: decimation,spatial,temporal,hole_filling (default none)",
+    )
+    s.add_argument(
+        "--max-skew-ms",
+        type=float,
+        help="colour-depth offset still called one instant (default: half a frame)",
+    )
+    s.add_argument(
+        "--drop-unsynced",
+        action="store_true",
+        help="do not publish clouds whose colour is of another instant (default: publish, flagged)",
+    )
+    s.add_argument(
+        "--depth-correction",
+        choices=("auto", "off"),
+        default="auto",
+        help="apply the calibration result's depth correction (auto) or never (off)",
+    )
+    s.add_argument("--robot", default=None, help="robot id (default $SOFIA_ROBOT or panda)")
+    s.add_argument(
+        "--sim", action="store_true", help="frames from the simulated D435 at the live flange pose"
+    )
+    _add_sim_args(s)
+    add_zenoh_args(s)
+    s.set_defaults(func=_serve)
+
+    ls = cs.add_parser("list", help="connected cameras: name, serial, firmware, USB type")
+    ls.add_argument("--json", action="store_true", help="one JSON object per camera and line")
+    ls.set_defaults(func=_list)
+
+    r = cs.add_parser(
+        "record", help="record camera clouds, camera info and flange poses from the bus to MCAP"
+    )
+    r.add_argument("out", type=Path, metavar="OUT.mcap")
+    r.add_argument("--seconds", type=float, required=True, help="how long to record")
+    r.add_argument("--robot", default=None, help="robot id (default $SOFIA_ROBOT or panda)")
+    add_zenoh_args(r)
+    r.set_defaults(func=_record)
+
+    t = cs.add_parser("sim-truth", help="print the ground truth of a simulated scene as JSON")
+    _add_sim_args(t)
+    t.set_defaults(func=_truth)
+
+
+def sim_options(args: argparse.Namespace):  # type: ignore[no-untyped-def]
+    from .sim_scene import DEFAULT_TARGET, SimOptions, parse_T_flange_cam
+
+    return SimOptions(
+        scene=args.sim_scene, T_flange_cam=parse_T_flange_cam(args.sim_T_flange_cam),
+        target_base=tuple(args.sim_target) if args.sim_target else DEFAULT_TARGET,
+        blob_radius=args.sim_blob_radius, seed=args.sim_seed, kind=args.sim_kind, board_file=args.sim_board,
+        noise=args.sim_noise != "none",
+        stereo=args.sim_noise == "stereo",
+    )  # fmt: skip
+
+
+def _serve(args: argparse.Namespace) -> int:
+    from .intrinsics import d435_spec
+    from .processing import parse_filters
+    from .service import ServiceConfig, main
+
+    try:
+        d435_spec(args.width, args.height, args.fps)
+        conf = ServiceConfig(
+            robot=args.robot or default_robot(), zenoh=ZenohOptions.from_args(args), width=args.width,
+            height=args.height, fps=args.fps, serial=args.serial, preset=args.preset,
+            filters=parse_filters(args.filters), max_skew_ms=args.max_skew_ms, drop_unsynced=args.drop_unsynced,
+            depth_correction=args.depth_correction == "auto", sim=sim_options(args) if args.sim else None,
+        )  # fmt: skip
+    except CameraError as e:
+        print(f"sofia camera serve: {e}", file=sys.stderr)
+        return 2
+    return main(conf)
+
+
+def _list(args: argparse.Namespace) -> int:
+    from .device import list_devices
+
+    cameras = list_devices()
+    if args.json:
+        for cam in cameras:
+            print(json.dumps(cam))
+        return 0
+    if not cameras:
+        print("no RealSense camera connected (check the USB 3 cable, `lsusb | grep 8086`, the udev rules)")
+        return 1
+    print(f"{'name':34} {'serial':14} {'firmware':14} usb")
+    for cam in cameras:
+        print(f"{cam.get('name', '?'):34} {cam.get('serial', '?'):14} {cam.get('firmware', '?'):14} "
+              f"{cam.get('usb_type', '?')}")  # fmt: skip
+    return 0
+
+
+def _record(args: argparse.Namespace) -> int:
+    from .record import record
+
+    counts = record(args.out, args.seconds, args.robot or default_robot(), ZenohOptions.from_args(args))
+    print(f"{args.out}: " + ", ".join(f"{n} {what}" for what, n in counts.items()))
+    return 0 if counts.get("clouds") else 1
+
+
+def _truth(args: argparse.Namespace) -> int:
+    from .sim_scene import SimWorld
+
+    try:
+        world = SimWorld(sim_options(args))
+    except CameraError as e:
+        print(f"sofia camera sim-truth: {e}", file=sys.stderr)
+        return 2
+    print(json.dumps(world.truth()))
+    return 0

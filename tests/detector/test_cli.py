@@ -152,7 +152,7 @@ def test_bad_files_are_reported_and_good_ones_still_processed(
             path.write_bytes(content)
         paths.append(str(path))
     r = run(*paths, str(cloud_files["npy"]))
-    assert r.returncode == 1
+    assert r.returncode == 2  # bad input files: the usage/input exit code
     for _, _, needle in BAD_FILES:
         assert needle in r.stderr, r.stderr
     assert r.stdout.count("ok: 1 object(s)") == 1  # the good file is still processed

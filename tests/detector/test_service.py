@@ -221,7 +221,34 @@ def test_transform_from_the_calibrator(sofia_proc, robot_id: str, session, scene
     session.put(
         keys.camera_points,
         bytes(pointcloud.encode_points(f.render.points_cam, stamp_ns=STAMP_NS, frame_id="cam")),
+        congestion_control=zenoh.CongestionControl.BLOCK,  # 4.9 MB: never dropped
     )
     det = Detection.model_validate_json(dets.get(timeout=15))
     assert det.transform == "calibrator result 99"
     assert np.linalg.norm(np.array(det.objects[0].center) - scenes["sphere"].objects[0].center) < 0.005
+
+
+def test_a_result_published_before_the_detector_started_is_used(sofia_proc, robot_id: str, session) -> None:  # type: ignore[no-untyped-def]
+    """The calibrator published its result before the detector started: the detector asks the
+    result's queryable at start instead of waiting for the next result."""
+    from sofia_schemas.messages import CalibrationResult
+    from sofia_schemas.transforms import matrix_to_quat_xyzw
+
+    keys = Keys(robot_id)
+    T = DEFAULT_T_FLANGE_CAM
+    result = CalibrationResult(
+        stamp_ns=77, matrix=T.tolist(), translation=tuple(T[:3, 3]),  # type: ignore[arg-type]
+        quaternion_xyzw=tuple(matrix_to_quat_xyzw(T[:3, :3])),  # type: ignore[arg-type]
+        rpy=(0.0, 0.0, 0.0), target_base=(0.5, 0.0, 0.0), spread_mm=(1.0, 1.0, 1.0), passes=True,
+        n_samples=12, inliers=list(range(12)), outliers=[], residuals_mm=[0.5] * 12,
+        std_translation_mm=(0.1, 0.1, 0.1), std_rotation_deg=(0.01, 0.01, 0.01), dissipation_after=0.1,
+    )  # fmt: skip
+    payload = result.to_json_bytes()
+    queryable = session.declare_queryable(
+        keys.calibration_result, lambda q: q.reply(keys.calibration_result, payload, encoding=ENCODING_JSON)
+    )
+    try:
+        proc = sofia_proc("detector", "serve")
+        proc.wait_for_log("using T_flange_cam from the calibrator (result 77)", timeout=60)
+    finally:
+        queryable.undeclare()

@@ -19,7 +19,11 @@ class DetectedObject(Message):
     field: tuple[int, int] | None  # (row, col), None when off the board grid
     allowed: bool  # lies on a red field
     n_points: int
-    confidence: float = Field(ge=0.0, le=1.0)
+    confidence: float = Field(ge=0.0, le=1.0)  # calibrated: >= 0.9 means within 5 mm
+    visibility: float = Field(1.0, ge=0.0, le=1.0)  # estimated share of the object in view
+    truncated: tuple[str, ...] = ()  # what hides the rest: image_edge, occluded, depth_holes
+    colour: str | None = None  # palette name of the object's colour (None: no colours in the cloud)
+    rgb: tuple[int, int, int] | None = None  # its white-balanced mean sRGB
 
 
 class Detection(Message):

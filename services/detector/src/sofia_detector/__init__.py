@@ -1,10 +1,17 @@
 """SofIA detector: the object on the board, as a library (``detect``) and a Zenoh service."""
 
 from .detect import as_cloud, detect
-from .errors import BadCloud, BadTransformFile, DetectorError, TransformUnavailable, UnreadableFile
+from .errors import (
+    BadCloud,
+    BadTransformFile,
+    DetectorError,
+    TransformUnavailable,
+    UnreadableFile,
+    WrongCloud,
+)
 from .params import DetectorParams
 
 __all__ = [
     "BadCloud", "BadTransformFile", "DetectorError", "DetectorParams", "TransformUnavailable",
-    "UnreadableFile", "as_cloud", "detect",
+    "UnreadableFile", "WrongCloud", "as_cloud", "detect",
 ]  # fmt: skip

@@ -15,9 +15,10 @@ from sofia_schemas.messages import Detection
 from sofia_schemas.zenoh_config import ZenohOptions, add_zenoh_args
 
 from .detect import detect
-from .errors import DetectorError
+from .errors import DetectorError, WrongCloud
 from .frames import load_transform_file
 from .readers import FileCloud, iter_file_clouds
+from .sanity import diagnose
 
 log = logging.getLogger("sofia.detect")
 
@@ -77,6 +78,8 @@ def _summary(fc: FileCloud, det: Detection) -> str:
             f"centre ({c[0]:.4f}, {c[1]:.4f}, {c[2]:.4f}) m, centroid ({m[0]:.4f}, {m[1]:.4f}, {m[2]:.4f}) m, "
             f"extents {e[0] * 1e3:.0f} x {e[1] * 1e3:.0f} x {e[2] * 1e3:.0f} mm, "
             f"yaw {obj.yaw * 57.29578:.1f} deg, {obj.n_points} points, confidence {obj.confidence:.2f}"
+            + (f", {obj.colour}" if obj.colour else "")
+            + (f", {obj.visibility:.0%} in view ({', '.join(obj.truncated)})" if obj.truncated else "")
         )
     return "\n".join(lines)
 
@@ -118,7 +121,9 @@ def _detect_all(args: argparse.Namespace) -> int:
     for path in args.files:
         try:
             for fc in iter_file_clouds(path, board.frame_id, T_flange_cam, transform_name):
-                det = detect(fc.points, board, stamp_ns=fc.stamp_ns, source=fc.source)
+                det = detect(fc.points, board, stamp_ns=fc.stamp_ns, source=fc.source, rgb=fc.rgb)
+                if det.status == "no_board" and (why := diagnose(fc.points, board)) is not None:
+                    raise WrongCloud(fc.source, why)
                 if fc.transform:
                     det = det.model_copy(update={"transform": fc.transform})
                 rec = _record(path, fc, det)
@@ -140,4 +145,4 @@ def _detect_all(args: argparse.Namespace) -> int:
             "sofia detect: no base-frame clouds found (camera-frame clouds need --transform)", file=sys.stderr
         )
         return 1
-    return 1 if failures else 0
+    return 2 if failures else 0  # a file that cannot be read or is not a board cloud: an input error

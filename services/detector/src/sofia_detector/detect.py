@@ -11,13 +11,20 @@ from sofia_schemas.messages import DetectedObject, Detection
 from sofia_schemas.transforms import invert
 
 from .board_fit import BoardFit, fit_board
+from .colour import board_white, name_colour
+from .depth_clean import pixel_spacing
 from .errors import BadCloud
 from .footprint import ObjectEstimate, estimate_object
 from .params import DetectorParams
 from .plane import coords
-from .segment import ObjectPoints, organized_objects, unorganized_objects
+from .segment import Levels, ObjectPoints, organized_objects, unorganized_objects
+from .visibility import InView, in_view
 
 DEFAULT_PARAMS = DetectorParams()
+HOLES_OK = 0.05  # share of an object's pixels without depth that costs no confidence
+TRUNCATED_CONFIDENCE = 0.45
+OFF_BOARD = 0.5  # an object most of whose surroundings lie below the board stands beside it  # the centre of a truncated object's visible part is not trusted
+Colour = tuple[str | None, tuple[int, int, int] | None]
 
 
 def as_cloud(points: object) -> np.ndarray:
@@ -36,7 +43,9 @@ def as_cloud(points: object) -> np.ndarray:
     return arr
 
 
-def _to_message(est: ObjectEstimate, board: Board, T_base_board: np.ndarray, noise: float) -> DetectedObject:
+def _to_message(
+    est: ObjectEstimate, board: Board, T_base_board: np.ndarray, noise: float, view: InView, colour: Colour
+) -> DetectedObject:
     R, t = T_base_board[:3, :3], T_base_board[:3, 3]
     center = R @ np.array([est.center_xy[0], est.center_xy[1], est.height / 2]) + t
     centroid = R @ est.centroid + t
@@ -45,24 +54,72 @@ def _to_message(est: ObjectEstimate, board: Board, T_base_board: np.ndarray, noi
     yaw = (yaw + np.pi / 2) % np.pi - np.pi / 2
     rc = board.field_of_board_xy(est.center_xy[None, :])[0]
     fld = (int(rc[0]), int(rc[1])) if rc[0] >= 0 else None
-    # confidence: enough points for the footprint, and a board plane as flat as a depth camera sees it
+    # confidence: enough points for the footprint, a board plane as flat as a depth camera sees it,
+    # the whole silhouette in view and depth over the object
     coverage = min(est.n_points / 150.0, 1.0)
     flatness = 1.0 if noise < 0.004 else 0.6
+    confidence = coverage * flatness * (1.0 - max(view.holes - HOLES_OK, 0.0))
+    if view.reasons:  # truncated: the centre of the visible part
+        confidence = min(confidence, TRUNCATED_CONFIDENCE) * view.fraction
     return DetectedObject(
         center=tuple(float(v) for v in center),  # type: ignore[arg-type]
         centroid=tuple(float(v) for v in centroid),  # type: ignore[arg-type]
         extents=(est.size[0], est.size[1], est.height),
         yaw=float(yaw), field=fld, allowed=fld is not None and board.is_allowed(*fld),
-        n_points=est.n_points, confidence=round(coverage * flatness, 3),
+        n_points=est.n_points, confidence=round(float(np.clip(confidence, 0.0, 1.0)), 3),
+        visibility=round(view.fraction, 3), truncated=view.reasons, colour=colour[0], rgb=colour[1],
     )  # fmt: skip
 
 
-def _objects(cloud: np.ndarray, fit: BoardFit, board: Board, params: DetectorParams) -> list[ObjectPoints]:
+def levels(fit: BoardFit, params: DetectorParams, organized: bool) -> Levels:
+    """Thresholds of one cloud from the board's fitted noise and (organized) pixel spacing."""
+    noise = fit.plane.rms if np.isfinite(fit.plane.rms) else 0.002
+    spacing = pixel_spacing(fit.m_coarse, params.stride) if organized else params.cell
+    return Levels(
+        seed=max(params.seed_height, params.noise_k * noise),
+        point=max(params.object_height, params.point_k * noise),
+        delta=params.neighbour_px * spacing + 3 * noise,
+        delta_coarse=2 * params.stride * spacing + 4 * noise,
+        colour_tol=params.colour_tol,
+    )
+
+
+def _objects(
+    cloud: np.ndarray, rgb: np.ndarray | None, fit: BoardFit, board: Board, params: DetectorParams, lv: Levels
+) -> list[ObjectPoints]:
     half = np.array(board.extent) / 2 + params.field_margin
     T_board_plane = invert(fit.T_base_board) @ fit.T_base_plane
     if cloud.ndim == 3:
-        return list(organized_objects(cloud, fit.m_coarse, fit.T_base_board, T_board_plane, half, params))
-    return list(unorganized_objects(fit.m_coarse, invert(T_board_plane), half, params))
+        return list(
+            organized_objects(cloud, fit.m_coarse, fit.T_base_board, T_board_plane, half, params, lv, rgb)
+        )
+    return list(unorganized_objects(fit.m_coarse, invert(T_board_plane), half, params, lv.point))
+
+
+def as_colours(rgb: object, cloud: np.ndarray) -> np.ndarray | None:
+    """Validate colours aligned with ``cloud``: uint8 of shape ``cloud.shape`` (or None)."""
+    if rgb is None:
+        return None
+    arr = np.asarray(rgb)
+    if arr.shape != cloud.shape:
+        raise BadCloud(f"colours of shape {arr.shape} do not match the points {cloud.shape}")
+    if arr.dtype != np.uint8:
+        if arr.dtype.kind not in "fiu" or not np.all(np.isfinite(arr)):
+            raise BadCloud(f"colours must be real numbers 0-255, got dtype {arr.dtype}")
+        arr = np.clip(arr, 0, 255).astype(np.uint8)
+    return arr
+
+
+def _colour(
+    obj: ObjectPoints, est: ObjectEstimate, white: np.ndarray | None, params: DetectorParams
+) -> Colour:
+    if obj.rgb is None or obj.rows is None or obj.cols is None:
+        return None, None
+    upper = obj.b[2] >= 0.8 * est.height
+    sel = np.flatnonzero(upper) if np.count_nonzero(upper) >= 3 else np.arange(obj.rows.size)
+    sel = sel[:: max(1, sel.size // 500)]
+    pix = obj.rgb[obj.rows[sel], obj.cols[sel]]
+    return name_colour(np.median(pix.reshape(-1, 3).astype(np.float64), axis=0), white, params.palette)
 
 
 def detect(
@@ -73,6 +130,7 @@ def detect(
     stamp_ns: int = 0,
     frame_id: str | None = None,
     source: str | None = None,
+    rgb: object = None,
 ) -> Detection:
     """Every object lying on the board.
 
@@ -80,10 +138,13 @@ def detect(
     robot base), metres; NaN or inf mark missing points. board: the configured board; its plane,
     position and yaw are measured from the cloud near it. Returns a :class:`Detection` with the
     objects on red fields first; ``status`` is ``no_object`` for an empty board and ``no_board``
-    when the board is not in the cloud. Raises :class:`BadCloud` for arrays that are not clouds.
+    when the board is not in the cloud. rgb: colours aligned with the points ((N, 3) or (H, W, 3)
+    uint8), which name each object's colour and join the pieces of dark objects. Raises
+    :class:`BadCloud` for arrays that are not clouds.
     """
     t0 = time.perf_counter()
     cloud = as_cloud(points)
+    colours = as_colours(rgb, cloud)
     head: dict[str, Any] = {"stamp_ns": stamp_ns, "frame_id": frame_id or board.frame_id, "source": source}
     organized = cloud.ndim == 3
     n_total = cloud.shape[0] * cloud.shape[1] if organized else cloud.shape[0]
@@ -102,14 +163,28 @@ def detect(
             detail=f"no board surface within {params.board_band} m of the configured board "
             f"({n_total} points)",
         )  # fmt: skip
-    found = _objects(cloud, fit, board, params)
+    lv = levels(fit, params, organized)
+    found = _objects(cloud, colours, fit, board, params, lv)
     t2 = time.perf_counter()
+    white = None
+    if colours is not None and organized:
+        T_board_plane = invert(fit.T_base_board) @ fit.T_base_plane
+        s = params.stride
+        white = board_white(fit.m_coarse, colours[::s, ::s], T_board_plane, board, params.outline_band)
+    left_band = 0
+    if organized:
+        seen_cols = np.isfinite(fit.m_coarse[2]).mean(axis=0) > 0.2  # the invalid band ends here
+        left_band = int(np.argmax(seen_cols)) * params.stride if seen_cols.any() else 0
     objects = []
     for obj in found:
         if obj.b.shape[1] < params.min_points:
             continue
         est = estimate_object(obj, fit.plane.rms, params.curvature)
-        msg = _to_message(est, board, fit.T_base_board, fit.plane.rms)
+        view = in_view(obj, est.height, params.colour_tol, left_band)
+        if view.off_board > OFF_BOARD or est.size[1] < params.min_width:
+            continue  # beside the board (on the table), or a sliver of mixed pixels
+        colour = _colour(obj, est, white, params)
+        msg = _to_message(est, board, fit.T_base_board, fit.plane.rms, view, colour)
         if est.height >= params.min_object_height and msg.field is not None:  # on the field grid
             objects.append(msg)
     objects.sort(key=lambda o: (not o.allowed, -o.n_points))

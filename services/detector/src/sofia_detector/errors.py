@@ -33,3 +33,20 @@ class TransformUnavailable(DetectorError):  # noqa: N818 - public API name
 class BadTransformFile(DetectorError):  # noqa: N818 - public API name
     def __init__(self, path: object, what: str) -> None:
         super().__init__(f"transform file {path}: {what}")
+
+
+class WrongCloud(DetectorError):  # noqa: N818 - public API name
+    """A cloud without a board that looks like a mistake: millimetres, or the camera's frame."""
+
+    def __init__(self, source: object, what: str) -> None:
+        super().__init__(f"{source}: no board found, and {what}")
+
+
+class UnknownFrame(DetectorError):  # noqa: N818 - public API name
+    """A cloud whose ``header.frame_id`` is neither the base frame nor a known camera frame."""
+
+    def __init__(self, frame_id: str, source: object, known: tuple[str, ...]) -> None:
+        super().__init__(
+            f"{source}: cloud in frame {frame_id!r}, which is neither the base frame nor a camera frame "
+            f"(known frames: {', '.join(known)})"
+        )

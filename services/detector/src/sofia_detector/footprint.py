@@ -12,9 +12,12 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy import ndimage
 
-from .outline import min_area_rect
+from .outline import Rect, min_area_rect
 from .segment import ObjectPoints
+
+FIT_POINTS = 3000  # points used by the fits (every k-th of a large object)
 
 
 @dataclass(frozen=True)
@@ -54,6 +57,57 @@ def fit_top(x: np.ndarray, y: np.ndarray, h: np.ndarray) -> tuple[np.ndarray, fl
     return (coef, float(se_d)) if np.all(np.isfinite(coef)) and np.isfinite(se_d) else None
 
 
+def _line(x: np.ndarray, y: np.ndarray) -> tuple[float, float, float]:
+    """Least-squares ``y = a + k x`` of (n,) float64 arrays: (a, k, rms residual)."""
+    xm, ym = float(x.mean()), float(y.mean())
+    dx = x - xm
+    k = float(dx @ (y - ym)) / max(float(dx @ dx), 1e-12)
+    a = ym - k * xm
+    return a, k, float(np.sqrt(np.mean((y - a - k * x) ** 2)))
+
+
+def fit_cone(b: np.ndarray, rect: Rect, noise: float) -> float | None:
+    """Apex height of a cone standing in footprint ``rect``, or None when ``b`` is no cone.
+
+    b: (3, n) board-frame points (z = height), metres. The heights within 80 % of the footprint's
+    inscribed radius must fall linearly with the distance from its centre (``h = a - k r``,
+    ``k`` > 0.5) within three depth noise deviations plus 3 mm, better than a cap; the apex is ``a``, which the camera's
+    sampling of the tip (mixed pixels, holes) usually misses.
+    """
+    radius = 0.5 * float(min(rect.size))
+    c = rect.center
+    r = np.hypot(b[0] - c[0], b[1] - c[1])
+    sel = r < 0.8 * radius
+    if np.count_nonzero(sel) < 20 or radius < 0.01:
+        return None
+    rs, hs = r[sel].astype(np.float64), b[2, sel].astype(np.float64)
+    a, k, rms = _line(rs, hs)
+    _, _, rms_cap = _line(rs * rs, hs)  # a ball's cap, for comparison
+    if k > -0.5 or rms > 3 * noise + 0.003 or rms > 0.8 * rms_cap or a > 2.0 * float(hs.max()):
+        return None
+    tip = rs < 0.3 * radius  # a cone's tip lies on the line; a bottle's flat cap falls below it
+    if np.count_nonzero(tip) >= 5 and float(np.median(hs[tip] - a - k * rs[tip])) < -(2 * noise + 0.003):
+        return None
+    return float(a)
+
+
+def _solid(obj: ObjectPoints, subset: np.ndarray) -> np.ndarray:
+    """``subset`` ((n,) bool over the object's points) without its specks on the pixel grid: the
+    pieces smaller than 10 % of the largest (and than 10 pixels), which are mixed pixels that
+    slipped through at the same height, not part of a face."""
+    if obj.rows is None or obj.cols is None or np.count_nonzero(subset) < 3:
+        return subset
+    grid = np.zeros(obj.shape, dtype=bool)
+    grid[obj.rows[subset], obj.cols[subset]] = True
+    labels, n = ndimage.label(grid, structure=np.ones((3, 3), dtype=bool))
+    if n < 2:
+        return subset
+    sizes = np.bincount(labels.ravel())
+    sizes[0] = 0
+    keep = sizes >= min(max(10.0, 0.1 * sizes.max()), sizes.max())
+    return subset & keep[labels[obj.rows, obj.cols]]
+
+
 def estimate_object(obj: ObjectPoints, noise: float, curvature: float) -> ObjectEstimate:
     """Footprint, height and centre of one object.
 
@@ -65,10 +119,11 @@ def estimate_object(obj: ObjectPoints, noise: float, curvature: float) -> Object
     height: the top and the upper edge of the visible sides, which project onto the footprint,
     and not the mixed pixels that a depth camera leaves along silhouettes (they lie outside it).
     """
-    b = obj.b
+    b_all = obj.b
+    n = b_all.shape[1]
+    b = b_all[:, :: max(1, n // FIT_POINTS)]  # plenty for the fits
     h = b[2]
-    n = h.size
-    k = max(n - 1 - n // 100, 0)
+    k = max(h.size - 1 - h.size // 100, 0)
     h_hi = float(np.partition(h, k)[k])  # 99th percentile
     depth = float(np.clip(0.14 * h_hi, 0.004, 0.012))
     rect = min_area_rect(obj.boundary_xy())
@@ -82,7 +137,10 @@ def estimate_object(obj: ObjectPoints, noise: float, curvature: float) -> Object
     fit = fit_top(top[0] - mean_top[0], top[1] - mean_top[1], top[2])
     curved = False
     yaw = rect.yaw
-    if fit is not None and fit[0][3] < -curvature and fit[0][3] < -4 * fit[1]:
+    cone = fit_cone(b, rect, noise)
+    if cone is not None:  # a cone: its apex is the height, its base the full footprint
+        curved, height, center_xy, size = True, cone, rect.center, rect.size
+    elif fit is not None and fit[0][3] < -curvature and fit[0][3] < -4 * fit[1]:
         coef = fit[0]
         apex = mean_top - coef[1:3] / (2 * coef[3])
         apex_uv = R.T @ apex
@@ -93,7 +151,7 @@ def estimate_object(obj: ObjectPoints, noise: float, curvature: float) -> Object
             size = 2 * np.maximum(apex_uv - rect.lo, rect.hi - apex_uv)
     if not curved:
         height = float(np.median(top[2])) if top.shape[1] else h_hi
-        face = h > height - max(3 * noise, 0.004)
+        face = _solid(obj, b_all[2] > height - max(3 * noise, 0.004))
         if np.count_nonzero(face) >= 3:
             rect = min_area_rect(obj.boundary_xy(face))
             yaw = rect.yaw
@@ -103,7 +161,7 @@ def estimate_object(obj: ObjectPoints, noise: float, curvature: float) -> Object
         size = size[::-1]
         yaw += np.pi / 2
     yaw = float((yaw + np.pi / 2) % np.pi - np.pi / 2)
-    centroid = b.mean(axis=1, dtype=np.float64)
+    centroid = b_all.mean(axis=1, dtype=np.float64)
     return ObjectEstimate(
         center_xy=np.asarray(center_xy, dtype=np.float64), height=height,
         size=(float(size[0]), float(size[1])), yaw=yaw, centroid=centroid, curved=curved, n_points=n,

@@ -2,7 +2,8 @@
 
 ``T_base_cam = T_base_flange(stamp) @ T_flange_cam``. ``T_flange_cam`` comes from the calibrator
 (a :class:`~sofia_schemas.CalibrationResult`) or from a file; ``T_base_flange`` at the cloud's stamp
-is interpolated from the recent flange poses.
+is interpolated from the recent flange poses. The calibration's ``camera_correction`` (a depth
+scale) is applied to camera-frame points first, unless the cloud's producer already applied it.
 """
 
 from __future__ import annotations
@@ -16,6 +17,7 @@ from pathlib import Path
 import numpy as np
 from scipy.spatial.transform import Rotation, Slerp
 from sofia_schemas.files import FileContentError, load_json_or_yaml
+from sofia_schemas.messages.calibration import CameraCorrection
 from sofia_schemas.transforms import as_transforms, invert, make_transform
 
 from .errors import BadTransformFile, TransformUnavailable
@@ -52,6 +54,21 @@ def load_transform_file(path: str | Path) -> np.ndarray:
     except FileContentError as e:
         raise BadTransformFile(path, e.what) from None
     return parse_transform(data, str(path))
+
+
+def load_correction_file(path: str | Path) -> CameraCorrection:
+    """The ``camera_correction`` of a saved calibration (YAML or JSON); identity when it has none."""
+    try:
+        data = load_json_or_yaml(path)
+    except (OSError, FileContentError):
+        return CameraCorrection()  # load_transform_file reports the file's problem
+    corr = data.get("camera_correction") if isinstance(data, dict) else None
+    if corr is None:
+        return CameraCorrection()
+    try:
+        return CameraCorrection.model_validate(corr)
+    except ValueError as e:
+        raise BadTransformFile(path, f"camera_correction: {e}") from None
 
 
 def camera_to_base(points_cam: np.ndarray, T_base_cam: np.ndarray) -> np.ndarray:

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from .colour import DEFAULT_PALETTE
+
 
 @dataclass(frozen=True)
 class DetectorParams:
@@ -17,13 +19,21 @@ class DetectorParams:
     outline_margin: the outline is searched within the configured board grown by this margin.
     max_board_yaw: largest in-plane rotation of the real board from the configured one.
     max_rim: widest border of the board around its fields (outline sanity check).
-    seed_height: height above the measured plane that marks a coarse object pixel.
-    object_height: height above the plane of the points that form an object (full resolution).
+    seed_height: floor of the height above the measured plane that marks a coarse object pixel
+        (the board's fitted noise raises it to ``noise_k`` standard deviations).
+    object_height: floor of the height of the points that form an object (full resolution;
+        raised to ``point_k`` noise standard deviations).
+    noise_k, point_k: the two thresholds in units of the board's fitted depth noise.
     max_height: points higher than this (the gripper fingers, the arm) are ignored.
     field_margin: an object's centre must lie within the field grid grown by this margin.
     min_seed_pixels: smallest coarse component that is examined.
     min_points: smallest object (full-resolution points).
-    min_object_height: an object must rise this far above the board.
+    min_object_height: an object must rise this far above the board (the height floor).
+    neighbour_px: flying pixels: a point needs two of its 8 neighbours within this many pixel
+        spacings (plus the depth noise) in 3D.
+    min_width: narrowest footprint of an object (thinner: a sheet of flying pixels).
+    colour_tol: colour distance (see :func:`.depth_clean.chroma`) of holes bridged into an object.
+    palette: (name, sRGB) of the colours objects are named after.
     curvature: |d| (1/m) of the top fit ``h = a + b x + c y + d r^2`` above which a top is curved.
     cell: occupancy-grid cell of unorganized clouds.
     """
@@ -36,12 +46,18 @@ class DetectorParams:
     outline_margin: float = 0.08
     max_board_yaw: float = 0.105  # 6 degrees
     max_rim: float = 0.05
-    seed_height: float = 0.015
-    object_height: float = 0.008
+    seed_height: float = 0.005
+    object_height: float = 0.003
     max_height: float = 0.30
     field_margin: float = 0.02
     min_seed_pixels: int = 3
     min_points: int = 30
-    min_object_height: float = 0.015
+    min_object_height: float = 0.005
     curvature: float = 3.0
     cell: float = 0.004
+    noise_k: float = 4.0
+    point_k: float = 3.0
+    neighbour_px: float = 4.0
+    colour_tol: float = 0.25
+    min_width: float = 0.008
+    palette: tuple[tuple[str, tuple[int, int, int]], ...] = DEFAULT_PALETTE

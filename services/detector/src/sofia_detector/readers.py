@@ -19,7 +19,8 @@ SUFFIXES = (".mcap", ".pcd", ".ply", ".npy")
 
 @dataclass(frozen=True)
 class FileCloud:
-    """One cloud of a file: points (N, 3) or (H, W, 3) in ``frame_id``; ``index`` counts from 0."""
+    """One cloud of a file: points (N, 3) or (H, W, 3) in ``frame_id`` and their colours (same
+    shape, uint8) when the file has them; ``index`` counts from 0."""
 
     index: int
     points: np.ndarray
@@ -27,11 +28,26 @@ class FileCloud:
     frame_id: str
     source: str
     transform: str | None = None
+    rgb: np.ndarray | None = None
 
 
-def _open3d_points(path: Path, magic: bytes) -> np.ndarray:
+def pcd_grid(head: bytes) -> tuple[int, int]:
+    """(HEIGHT, WIDTH) of a PCD header ((1, 0) when absent)."""
+    dims = {"WIDTH": 0, "HEIGHT": 1}
+    for line in head.split(b"\n"):
+        parts = line.split()
+        if len(parts) == 2 and parts[0].decode(errors="replace") in dims and parts[1].isdigit():
+            dims[parts[0].decode()] = int(parts[1])
+        if line.startswith(b"DATA"):
+            break
+    return dims["HEIGHT"], dims["WIDTH"]
+
+
+def _open3d_points(path: Path, magic: bytes) -> tuple[np.ndarray, np.ndarray | None]:
+    """Points (N, 3), or (H, W, 3) for an organized PCD (HEIGHT > 1), and colours or None."""
     import open3d as o3d
 
+    o3d.utility.set_verbosity_level(o3d.utility.VerbosityLevel.Error)  # its warnings: our errors say it
     with path.open("rb") as f:
         head = f.read(4096)
     if magic not in head:
@@ -40,7 +56,12 @@ def _open3d_points(path: Path, magic: bytes) -> np.ndarray:
     points = np.asarray(pcd.points)
     if points.shape[0] == 0 and b"POINTS 0" not in head and b"vertex 0" not in head:
         raise UnreadableFile(path, "Open3D read no points from it (corrupt or unsupported fields)")
-    return points
+    rgb = np.clip(np.asarray(pcd.colors) * 255.0 + 0.5, 0, 255).astype(np.uint8) if pcd.has_colors() else None
+    h, w = pcd_grid(head) if magic == b"FIELDS" else (1, 0)
+    if h > 1 and h * w == points.shape[0]:  # organized (PCL-style): keep the pixel grid
+        points = points.reshape(h, w, 3)
+        rgb = None if rgb is None else rgb.reshape(h, w, 3)
+    return points, rgb
 
 
 def _npy_points(path: Path) -> np.ndarray:
@@ -50,6 +71,8 @@ def _npy_points(path: Path) -> np.ndarray:
         raise UnreadableFile(path, f"not a NumPy .npy array: {e}") from None
     if arr.dtype.names and {"x", "y", "z"} <= set(arr.dtype.names):
         arr = np.stack([arr["x"], arr["y"], arr["z"]], axis=-1)
+    if arr.size == 0:
+        raise UnreadableFile(path, f"holds no points (an empty array of shape {arr.shape})")
     return arr
 
 
@@ -73,9 +96,10 @@ def iter_file_clouds(
         yield FileCloud(0, _npy_points(path), 0, frame_id, str(path))
         return
     if suffix in (".pcd", ".ply"):
-        yield FileCloud(
-            0, _open3d_points(path, b"FIELDS" if suffix == ".pcd" else b"ply"), 0, frame_id, str(path)
-        )
+        points, rgb = _open3d_points(path, b"FIELDS" if suffix == ".pcd" else b"ply")
+        if points.shape[0] == 0:
+            raise UnreadableFile(path, "holds no points")
+        yield FileCloud(0, points, 0, frame_id, str(path), rgb=rgb)
         return
     try:
         yield from _mcap_clouds(path, frame_id, T_flange_cam, transform_name)
@@ -91,7 +115,7 @@ def _mcap_clouds(
     for topic, _log_ns, cloud in iter_clouds(path):
         source = f"{path}:{topic}"
         if topic == TOPIC_POINTS or cloud.frame_id == frame_id or not cloud.frame_id:
-            yield FileCloud(index, cloud.xyz(), cloud.stamp_ns, frame_id, source)
+            yield FileCloud(index, cloud.xyz(), cloud.stamp_ns, frame_id, source, rgb=cloud.rgb())
         elif T_flange_cam is not None:
             if flange is None:
                 flange = FlangeHistory(maxlen=1_000_000)
@@ -102,7 +126,7 @@ def _mcap_clouds(
             except TransformUnavailable:
                 continue
             points = camera_to_base(cloud.xyz(), T_base_cam)
-            yield FileCloud(index, points, cloud.stamp_ns, frame_id, source, transform_name)
+            yield FileCloud(index, points, cloud.stamp_ns, frame_id, source, transform_name, cloud.rgb())
         else:
             continue
         index += 1

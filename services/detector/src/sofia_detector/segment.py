@@ -13,23 +13,27 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import ndimage
 
+from .depth_clean import EIGHT, bridge, consistent, consistent_at
 from .outline import grid_boundary, hull
 from .params import DetectorParams
 from .plane import change_frame, coords
-
-EIGHT = np.ones((3, 3), dtype=bool)
 
 
 @dataclass(frozen=True)
 class ObjectPoints:
     """One object: b (3, n) float32 board-frame coordinates (z = height), metres. Organized clouds
     also give each point's pixel (rows, cols) in a window of ``shape``, so that the outline of a
-    subset is found on the pixel grid."""
+    subset is found on the pixel grid, with the window around them (coordinates and colours)
+    that tells how much of the object is in view."""
 
     b: np.ndarray
     rows: np.ndarray | None = None
     cols: np.ndarray | None = None
     shape: tuple[int, int] = (0, 0)
+    origin: tuple[int, int] = (0, 0)  # (row, col) of the window in the image
+    image_shape: tuple[int, int] = (0, 0)
+    window: np.ndarray | None = None  # (3, *shape) float32 board-frame coordinates of the window
+    rgb: np.ndarray | None = None  # (*shape, 3) uint8 colours of the window
 
     def boundary_xy(self, subset: np.ndarray | None = None) -> np.ndarray:
         """(k, 2) points of ``subset`` ((n,) bool, default all) including every vertex of the
@@ -56,6 +60,22 @@ def _covers(r0: int, c0: int, mask: np.ndarray, rows: np.ndarray, cols: np.ndarr
     return bool(mask[r[ok], c[ok]].any())
 
 
+@dataclass(frozen=True)
+class Levels:
+    """Thresholds measured on the board of one cloud (metres).
+
+    seed: height of a coarse object pixel. point: height of a full-resolution object point.
+    delta, delta_coarse: neighbour distance of :func:`.depth_clean.consistent` at full resolution
+    and on the coarse grid. colour_tol: colour distance of holes bridged into an object.
+    """
+
+    seed: float
+    point: float
+    delta: float
+    delta_coarse: float
+    colour_tol: float
+
+
 def organized_objects(
     points_base: np.ndarray,
     m_coarse: np.ndarray,
@@ -63,22 +83,31 @@ def organized_objects(
     T_board_plane: np.ndarray,
     half: np.ndarray,
     params: DetectorParams,
+    levels: Levels,
+    rgb: np.ndarray | None = None,
 ) -> Iterator[ObjectPoints]:
     """Objects of an organized cloud.
 
     points_base: (H, W, 3) float, base frame, metres. m_coarse: (3, h, w) float32, plane frame, the
     coordinates of ``points_base[::stride, ::stride]``. T_base_board: (4, 4) measured board frame;
     T_board_plane: (4, 4) plane frame in the board frame. half: (2,) half size of the region where
-    object centres may lie, board frame.
+    object centres may lie, board frame. rgb: (H, W, 3) uint8 aligned colours, or None. Flying
+    pixels are dropped; pieces of one object split by depth holes are joined through missing
+    pixels of its colour.
     """
     s = params.stride
     H, W = points_base.shape[:2]
     with np.errstate(invalid="ignore"):
-        seeds = (m_coarse[2] > params.seed_height) & (m_coarse[2] < params.max_height)
-    labels, _ = ndimage.label(seeds, structure=EIGHT)
+        seeds = (m_coarse[2] > levels.seed) & (m_coarse[2] < params.max_height)
+    seeds = consistent_at(m_coarse, seeds, levels.delta_coarse)
+    rgb_coarse = None if rgb is None else rgb[::s, ::s]
+    labels, _ = bridge(seeds, ~np.isfinite(m_coarse[2]), rgb_coarse, levels.colour_tol)
     claimed: list[tuple[int, int, np.ndarray]] = []  # (row, col, mask) of the objects found so far
+    pad = 2
     for i, sl in enumerate(ndimage.find_objects(labels), start=1):
-        comp = labels[sl] == i
+        if sl is None:
+            continue
+        comp = (labels[sl] == i) & seeds[sl]
         sr, sc = np.nonzero(comp)
         if sr.size < params.min_seed_pixels:
             continue
@@ -88,37 +117,44 @@ def organized_objects(
         rows, cols = (sr + sl[0].start) * s, (sc + sl[1].start) * s  # full-resolution seed pixels
         if any(_covers(r, c, m, rows, cols) for r, c, m in claimed):
             continue  # a second seed of an object already found (holes in the cloud split it)
-        r0, r1 = max((sl[0].start - 1) * s, 0), min(sl[0].stop * s + s, H)
-        c0, c1 = max((sl[1].start - 1) * s, 0), min(sl[1].stop * s + s, W)
+        r0, r1 = max((sl[0].start - pad) * s, 0), min((sl[0].stop + pad) * s, H)
+        c0, c1 = max((sl[1].start - pad) * s, 0), min((sl[1].stop + pad) * s, W)
         b = change_frame(coords(points_base[r0:r1, c0:c1]), T_base_board)
         with np.errstate(invalid="ignore"):
-            mask = (b[2] > params.object_height) & (b[2] < params.max_height)
+            mask = (b[2] > levels.point) & (b[2] < params.max_height)
+        mask &= consistent(b, levels.delta)
         wl, _ = ndimage.label(mask, structure=EIGHT)
         hits = wl[rows - r0, cols - c0]
         hits = hits[hits > 0]
         if hits.size == 0:
             continue
-        obj = wl == int(np.argmax(np.bincount(hits)))
+        counts = np.bincount(hits)
+        pieces = np.flatnonzero(counts >= max(2.0, 0.1 * counts.max()))
+        obj = np.isin(wl, pieces) if pieces.size > 1 else wl == pieces[0]
         claimed.append((r0, c0, obj))
         rows_obj, cols_obj = np.nonzero(obj)
-        yield ObjectPoints(b[:, rows_obj, cols_obj], rows_obj, cols_obj, obj.shape)
+        yield ObjectPoints(
+            b[:, rows_obj, cols_obj], rows_obj, cols_obj, obj.shape, (r0, c0), (H, W), b,
+            None if rgb is None else rgb[r0:r1, c0:c1],
+        )  # fmt: skip
 
 
 def unorganized_objects(
-    m_plane: np.ndarray, T_plane_board: np.ndarray, half: np.ndarray, params: DetectorParams
+    m_plane: np.ndarray, T_plane_board: np.ndarray, half: np.ndarray, params: DetectorParams, point: float
 ) -> Iterator[ObjectPoints]:
     """Objects of an unorganized cloud.
 
     m_plane: (3, n) float32 coordinates of every point in the plane frame, metres.
     T_plane_board: (4, 4) measured board frame in the plane frame. half: (2,) half size of the
     region where object centres may lie, board frame. Points above the board are binned into
-    ``params.cell`` cells; cells holding at least two points are connected.
+    ``params.cell`` cells; cells holding at least two points are connected. point: height above
+    the board of an object point.
     """
     b = change_frame(m_plane, T_plane_board)
     grid_half = half + 0.06
     with np.errstate(invalid="ignore"):
         keep = (
-            (b[2] > params.object_height)
+            (b[2] > point)
             & (b[2] < params.max_height)
             & (np.abs(b[0]) < grid_half[0])
             & (np.abs(b[1]) < grid_half[1])

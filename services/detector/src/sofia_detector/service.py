@@ -26,9 +26,12 @@ from typing import Any
 import numpy as np
 import zenoh
 from sofia_schemas import Board, pointcloud
+from sofia_schemas.client import fetch_latest
 from sofia_schemas.keys import ENCODING_JSON, Keys
+from sofia_schemas.limits import check_payload, error_text
 from sofia_schemas.messages import CalibrationResult, Detection, ServiceStatus, now_ns
-from sofia_schemas.rosmsg import decode_flange_pose
+from sofia_schemas.messages.calibration import CameraCorrection, correction_applied
+from sofia_schemas.ros2.encoding import decode_flange, typed_cloud
 from sofia_schemas.service import (
     LatestSlot,
     StatusEndpoint,
@@ -41,10 +44,11 @@ from sofia_schemas.service import (
 from sofia_schemas.zenoh_config import ZenohOptions, zenoh_config
 
 from .detect import detect
-from .errors import DetectorError, TransformUnavailable
-from .frames import FlangeHistory, camera_to_base, load_transform_file, parse_transform
+from .errors import DetectorError, TransformUnavailable, UnknownFrame
+from .frames import FlangeHistory, camera_to_base, load_correction_file, load_transform_file, parse_transform
 from .params import DetectorParams
 from .pick import PickParams, first_pick
+from .selection import select, split_selection
 
 log = logging.getLogger("sofia.detector")
 STATUS_PERIOD_S = 1.0
@@ -60,6 +64,7 @@ class ServiceConfig:
     params: DetectorParams = field(default_factory=DetectorParams)
     pick: PickParams = field(default_factory=PickParams)
     backlog: int = 1  # clouds kept while busy: 1 keeps only the latest; more absorb a short stall
+    camera_frames: tuple[str, ...] = ("camera_color_optical_frame",)  # frame ids mapped with T_flange_cam
 
 
 @dataclass(frozen=True)
@@ -69,6 +74,7 @@ class CloudJob:
     payload: bytes
     camera: bool
     key: str
+    corrected: bool = False  # the producer already applied the camera correction (Zenoh attachment)
 
 
 class Detector:
@@ -82,10 +88,13 @@ class Detector:
         self.queries: queue.Queue[zenoh.Query] = queue.Queue()
         self.flange = FlangeHistory()
         self.T_flange_cam: np.ndarray | None = None
+        self.correction = CameraCorrection()  # applied to camera-frame clouds before T_flange_cam
         self.transform_name: str | None = None
         self.transform_pinned = False
+        self.result_stamp_ns = -1  # stamp of the calibrator result in use
         if config.transform_file is not None:
             self.T_flange_cam = load_transform_file(config.transform_file)
+            self.correction = load_correction_file(config.transform_file)
             self.transform_name = f"file {config.transform_file}"
             self.transform_pinned = True
         self.latest: Detection | None = None
@@ -96,16 +105,23 @@ class Detector:
 
     # --- callbacks: hand over only -------------------------------------
     def on_points(self, sample: zenoh.Sample) -> None:
+        if not typed_cloud(sample, self._error):
+            return
         self.slot.put(CloudJob(sample.payload.to_bytes(), False, str(sample.key_expr)))
 
     def on_camera_points(self, sample: zenoh.Sample) -> None:
-        self.slot.put(CloudJob(sample.payload.to_bytes(), True, str(sample.key_expr)))
+        if not typed_cloud(sample, self._error):
+            return
+        att = sample.attachment
+        applied = correction_applied(att.to_bytes() if att is not None else None)
+        self.slot.put(CloudJob(sample.payload.to_bytes(), True, str(sample.key_expr), applied))
 
     def on_flange_pose(self, sample: zenoh.Sample) -> None:
         try:
-            pose = decode_flange_pose(sample.payload.to_bytes())
+            check_payload(str(sample.key_expr), sample.payload)
+            pose = decode_flange(sample.payload.to_bytes(), sample.encoding)
         except ValueError as e:
-            self._error(f"flange pose: {e}")
+            self._error(f"flange pose: {error_text(e)}")
             return
         self.flange.add(pose.stamp_ns, pose.matrix())
 
@@ -113,20 +129,24 @@ class Detector:
         if self.transform_pinned:
             return
         try:
+            check_payload(str(sample.key_expr), sample.payload)
             result = CalibrationResult.model_validate_json(sample.payload.to_bytes())
             T = parse_transform({"matrix": result.matrix}, "calibration result")
         except ValueError as e:
-            self._error(f"calibration result: {e}")
+            self._error(f"calibration result: {error_text(e)}")
             return
         with self._lock:
-            self.T_flange_cam = T
+            if result.stamp_ns < self.result_stamp_ns:  # an older result fetched after a newer one
+                return
+            self.T_flange_cam, self.result_stamp_ns = T, result.stamp_ns
+            self.correction = result.camera_correction
             self.transform_name = f"calibrator result {result.stamp_ns}"
         log.info("using T_flange_cam from the calibrator (result %d)", result.stamp_ns)
 
     def _error(self, message: str) -> None:
         with self._lock:
             self.counters["errors"] += 1
-            self.last_error = message
+            self.last_error = message = error_text(message)
         log.warning("%s", message)
 
     # --- work -------------------------------------------------------------
@@ -147,29 +167,45 @@ class Detector:
                 log.exception("detector worker: unexpected error")
                 self._error(f"unexpected {type(e).__name__}: {e}")
 
-    def detect_payload(self, payload: bytes, camera: bool, key: str) -> Detection:
+    def detect_payload(self, payload: bytes, camera: bool, key: str, corrected: bool = False) -> Detection:
         """Decode a CDR PointCloud2 and detect. Raises ValueError subclasses on bad input."""
         cloud = pointcloud.decode(payload)
+        camera = self.in_camera_frame(cloud.frame_id, camera, key)
         points = cloud.xyz()
         transform = None
-        if camera:  # the key says the frame: clouds on `points` and in queries are in the base frame
+        if camera:
             with self._lock:
-                T_flange_cam, transform = self.T_flange_cam, self.transform_name
+                T_flange_cam, transform, corr = self.T_flange_cam, self.transform_name, self.correction
             if T_flange_cam is None:
                 raise TransformUnavailable(
                     f"cloud in frame {cloud.frame_id!r} and no flange->camera transform: start with "
                     "--transform FILE or run the calibrator"
                 )
             self.flange.wait_covered(cloud.stamp_ns, POSE_WAIT_S)
+            if not corrected and not corr.is_identity:  # once: skipped when the producer applied it
+                points = corr.apply(points)
             points = camera_to_base(points, self.flange.at(cloud.stamp_ns) @ T_flange_cam)
         t0 = time.perf_counter()
-        det = detect(points, self.board, self.config.params, stamp_ns=cloud.stamp_ns, source=key)
+        det = detect(
+            points, self.board, self.config.params, stamp_ns=cloud.stamp_ns, source=key, rgb=cloud.rgb()
+        )
         self.last_ms = (time.perf_counter() - t0) * 1e3
         return det.model_copy(update={"transform": transform}) if transform else det
 
+    def in_camera_frame(self, frame_id: str, camera_key: bool, key: str) -> bool:
+        """``header.frame_id`` decides: the board's frame is used as is, a camera frame is mapped with
+        the flange pose and ``T_flange_cam``. On the camera key any other frame is the camera's; on
+        the base key and in queries an unknown frame is refused (UnknownFrame names it)."""
+        frame = frame_id.lstrip("/")
+        if frame == self.board.frame_id or (not frame and not camera_key):
+            return False
+        if camera_key or frame in self.config.camera_frames:
+            return True
+        raise UnknownFrame(frame, key, (self.board.frame_id, *self.config.camera_frames))
+
     def process(self, job: CloudJob) -> None:
         try:
-            det = self.detect_payload(job.payload, job.camera, job.key)
+            det = self.detect_payload(job.payload, job.camera, job.key, job.corrected)
         except TransformUnavailable as e:
             with self._lock:
                 self.counters["no_transform"] += 1
@@ -187,8 +223,9 @@ class Detector:
 
     def answer(self, query: zenoh.Query) -> None:
         self.counters["queries"] += 1
-        payload = query_payload(query)
         try:
+            payload = query_payload(query)  # PayloadTooLarge beyond the key's limit
+            selection, payload = split_selection(payload, self.config.params.palette)
             if payload:
                 det = self.detect_payload(payload, False, f"query {query.key_expr}")
             else:
@@ -211,7 +248,7 @@ class Detector:
             log.exception("detect query failed")
             reply_error(query, e)
             return
-        reply_json(query, det)
+        reply_json(query, select(det, selection))
 
     def status(self) -> ServiceStatus:
         with self._lock:
@@ -245,6 +282,7 @@ def main(config: ServiceConfig) -> int:
             StatusEndpoint(session, keys.status("detector"), service.status),
         ]
         worker = run_worker("detector", lambda: service.run(stop))
+        fetch_latest(session, keys.calibration_result, service.on_calibration)  # a result from before
         log.info(
             "detector ready: clouds on %s and %s, detections on %s, queries on %s (transform: %s)",
             keys.points, keys.camera_points, keys.detections, keys.detect, service.transform_name,

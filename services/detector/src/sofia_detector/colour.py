@@ -1,0 +1,77 @@
+"""Object colours by name, robust to shading and to the light's colour and brightness.
+
+The board's white fields are in every image: their observed colour is the reference white. An
+object's colour is the median over its upper faces (lit like the board), scaled channel by
+channel so that the board's white looks like ``white_reference``, then named after the nearest
+palette colour in shading-invariant features (chromaticity and log brightness).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from sofia_schemas import Board
+
+from .depth_clean import chroma, colour_distance
+
+DEFAULT_PALETTE: tuple[tuple[str, tuple[int, int, int]], ...] = (
+    ("red", (200, 30, 35)),
+    ("orange", (235, 120, 30)),
+    ("yellow", (230, 200, 40)),
+    ("green", (40, 160, 60)),
+    ("blue", (30, 80, 200)),
+    ("purple", (130, 50, 160)),
+    ("white", (235, 235, 230)),
+    ("grey", (128, 128, 128)),
+    ("black", (25, 25, 28)),
+)
+WHITE_REFERENCE = (235.0, 235.0, 230.0)  # sRGB of the board's white fields in the palette's light
+MIN_WHITE_PIXELS = 20
+
+
+def board_white(
+    m_plane: np.ndarray, rgb_coarse: np.ndarray, T_board_plane: np.ndarray, board: Board, band: float
+) -> np.ndarray | None:
+    """(3,) median observed colour of the board's white (not allowed) fields, or None.
+
+    m_plane: (3, h, w) float32 coarse coordinates, plane frame, metres. rgb_coarse: (h, w, 3)
+    uint8 colours of the same pixels. T_board_plane: (4, 4) plane frame in the board frame.
+    Pixels within ``band`` of the plane and in the middle 60 % of a white field count.
+    """
+    with np.errstate(invalid="ignore"):
+        on_top = np.abs(m_plane[2]) < band
+    r, c = np.nonzero(on_top[::3, ::3])
+    r, c = 3 * r, 3 * c
+    if r.size == 0:
+        return None
+    xy = (T_board_plane[:2, :2] @ m_plane[:2, r, c]).T + T_board_plane[:2, 3]
+    rc = board.field_of_board_xy(xy)
+    size = np.array(board.field_size)
+    inside = rc[:, 0] >= 0
+    centres = board.field_centers_board()[np.clip(rc[:, 0], 0, None), np.clip(rc[:, 1], 0, None)]
+    middle = np.all(np.abs(xy - centres) < 0.3 * size, axis=1)
+    allowed = np.array([[board.is_allowed(i, j) for j in range(board.cols)] for i in range(board.rows)])
+    white = inside & middle & ~allowed[np.clip(rc[:, 0], 0, None), np.clip(rc[:, 1], 0, None)]
+    if np.count_nonzero(white) < MIN_WHITE_PIXELS:
+        return None
+    return np.median(rgb_coarse[r[white], c[white]].astype(np.float64), axis=0)  # type: ignore[no-any-return]
+
+
+def name_colour(
+    rgb: np.ndarray,
+    white: np.ndarray | None,
+    palette: tuple[tuple[str, tuple[int, int, int]], ...] = DEFAULT_PALETTE,
+) -> tuple[str, tuple[int, int, int]]:
+    """(name, sRGB) of an object's observed colour ``rgb`` (3,) 0-255.
+
+    white: (3,) observed board white, or None (then colours are taken as seen). The returned sRGB
+    is the white-balanced colour the name was chosen from.
+    """
+    balanced = np.asarray(rgb, dtype=np.float64)
+    if white is not None:
+        balanced = balanced * np.asarray(WHITE_REFERENCE) / np.maximum(white, 1.0)
+    balanced = np.clip(balanced, 0.0, 255.0)
+    refs = chroma(np.array([p for _, p in palette], dtype=np.float64))
+    d = colour_distance(chroma(balanced)[None, :], refs)
+    name = palette[int(np.argmin(d))][0]
+    r, g, b = (int(v) for v in np.round(balanced))
+    return name, (r, g, b)

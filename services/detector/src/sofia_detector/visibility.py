@@ -1,0 +1,96 @@
+"""How much of an object is in view: the image border, occluders and holes around its silhouette.
+
+Along the silhouette of a fully seen object the camera sees the board (or the object's own stereo
+shadow, in the board's colour). Where the silhouette runs along the image border, along something
+nearer to the camera (the fingers) or along missing depth of the object's own colour, the object
+goes on out of view: its centre from the visible part is biased.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import ndimage
+
+from .depth_clean import chroma, colour_distance
+from .segment import ObjectPoints
+
+OCCLUDER_ABOVE = 0.015  # a neighbour this much above the object's top is in front of it, metres
+TRUNCATED = 0.04
+BELOW_BOARD = 0.01  # neighbours this far below the board surface: the object stands off the board
+
+
+def grow(mask: np.ndarray, size: int) -> np.ndarray:
+    """(h, w) bool ``mask`` dilated by a ``size`` x ``size`` square (separable, fast)."""
+    return ndimage.maximum_filter(mask.view(np.uint8), size=size).view(bool)  # type: ignore[no-any-return]  # share of the silhouette out of view above which an object is truncated
+
+
+@dataclass(frozen=True)
+class InView:
+    """fraction: estimated share of the object in view (0-1). reasons: what hides the rest
+    (``image_edge``, ``occluded``, ``depth_holes``). lost: share of the silhouette out of view.
+    holes: share of the object's pixels without depth. off_board: share of its surroundings
+    (among those at or below board level) lying below the board: it stands beside the board."""
+
+    fraction: float
+    reasons: tuple[str, ...]
+    lost: float
+    holes: float
+    off_board: float = 0.0
+
+
+def in_view(obj: ObjectPoints, top: float, tol: float, left_band: int = 0) -> InView:
+    """Visibility of an object of an organized cloud whose top is ``top`` metres above the board.
+
+    left_band: width (px) of the band on the image's left that the second imager does not see:
+    its edge is an image edge. Missing depth just left of the object is its own stereo shadow
+    (the second imager sits to the right), not a hole in it.
+    """
+    if obj.rows is None or obj.cols is None or obj.window is None:
+        return InView(1.0, (), 0.0, 0.0, 0.0)
+    (r0, c0), (H, W) = obj.origin, obj.image_shape
+    rows, cols = obj.rows + r0, obj.cols + c0
+    border = (rows == 0) | (rows == H - 1) | (cols <= left_band) | (cols == W - 1)
+    edge = 2 * int(np.count_nonzero(border))
+    crop = (
+        slice(max(int(obj.rows.min()) - 4, 0), int(obj.rows.max()) + 5),
+        slice(max(int(obj.cols.min()) - 4, 0), int(obj.cols.max()) + 5),
+    )
+    mask = np.zeros(obj.shape, dtype=bool)
+    mask[obj.rows, obj.cols] = True
+    mask = mask[crop]
+    h = obj.window[2][crop]
+    ring = grow(mask, 5) & ~mask
+    with np.errstate(invalid="ignore"):
+        occluded = int(np.count_nonzero(ring & (h > top + OCCLUDER_ABOVE)))
+        low = int(np.count_nonzero(ring & (h < -BELOW_BOARD)))
+        level = int(np.count_nonzero(ring & (np.abs(h) <= BELOW_BOARD)))
+    holes, inner_holes = 0, 0.0
+    near = np.isnan(h) & grow(mask, 7)
+    if obj.rgb is not None and near.any():
+        rgb = obj.rgb[crop]
+        own = chroma(np.median(obj.rgb[obj.rows[::4], obj.cols[::4]].astype(np.float64), axis=0))
+        same = np.zeros_like(mask)
+        same[near] = colour_distance(chroma(rgb[near]), own) < tol
+        shadow = np.zeros_like(mask)
+        shadow[:, :-1] |= mask[:, 1:]
+        shadow[:, :-2] |= mask[:, 2:]
+        blobs = ndimage.minimum_filter(same.view(np.uint8), size=3)  # not the grazing slivers along rims
+        holes = int(np.count_nonzero(ring & grow(blobs.view(bool), 3) & ~shadow))
+        n_same = int(np.count_nonzero(same))
+        inner_holes = n_same / (n_same + obj.rows.size)
+    n = int(np.count_nonzero(ring)) + edge
+    lost = (edge + occluded + holes) / max(n, 1)
+    reasons = tuple(
+        name
+        for name, k in (("image_edge", edge), ("occluded", occluded), ("depth_holes", holes))
+        if k > 0.02 * n
+    )
+    return InView(
+        float(np.clip(1.0 - 1.2 * lost, 0.0, 1.0)),
+        reasons if lost > TRUNCATED else (),
+        lost,
+        inner_holes,
+        low / max(low + level, 1),
+    )

@@ -28,6 +28,8 @@ def test_synth_scenes(tmp_path: Path, sofia_proc: Callable[..., Any]) -> None:
         TOPIC_POINTS: 2,
         TOPIC_CAMERA_POINTS: 2,
         TOPIC_FLANGE_POSE: 2,
+        "/tf": 2,  # base -> flange, for Foxglove's TF tree
+        "/tf_static": 1,  # flange -> camera optical frame
     }
     assert s.duration_s == pytest.approx(0.2)
     truth = mcap_io.read_truth(out)

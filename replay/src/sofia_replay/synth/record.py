@@ -29,6 +29,7 @@ log = logging.getLogger(__name__)
 START_NS = 1_700_000_000_000_000_000  # board scenes
 CALIBRATION_START_NS = START_NS - 3_600_000_000_000  # calibration sessions: an hour earlier
 CAMERA_FRAME = "camera_color_optical_frame"
+TOPIC_TF, TOPIC_TF_STATIC = "/tf", "/tf_static"
 SCENE_KINDS = ("one", "empty", "nonred", "two", "mixed")
 MIXED_CYCLE: tuple[SceneKind, ...] = ("one", "one", "two", "nonred", "one", "empty")
 Frames = Literal["base", "camera", "both"]
@@ -36,6 +37,22 @@ Frames = Literal["base", "camera", "both"]
 
 def _flange(T: np.ndarray, stamp_ns: int, frame_id: str) -> FlangePose:
     return FlangePose.from_matrix(T, stamp_ns=stamp_ns, frame_id=frame_id)
+
+
+def write_tf(w: McapWriter, pose: FlangePose, T_flange_cam: np.ndarray | None = None) -> None:
+    """``/tf`` (base -> flange) at the pose's stamp, and ``/tf_static`` (flange -> camera optical
+    frame) when ``T_flange_cam`` is given, so that Foxglove places camera clouds in the base frame."""
+    from sofia_schemas.ros2 import convert as cv
+    from sofia_schemas.ros2.typesupport import encode
+    from sofia_schemas.transforms import matrix_to_quat_xyzw
+
+    tf = cv.tf_message([cv.flange_transform(pose)])
+    w.write_raw(TOPIC_TF, cv.TF_MESSAGE, encode(tf, cv.TF_MESSAGE), pose.stamp_ns)
+    if T_flange_cam is not None:
+        static = cv.transform_stamped(pose.stamp_ns, pose.child_frame_id, CAMERA_FRAME, T_flange_cam[:3, 3],
+                                      matrix_to_quat_xyzw(T_flange_cam[:3, :3]))  # fmt: skip
+        cdr = encode(cv.tf_message([static]), cv.TF_MESSAGE)
+        w.write_raw(TOPIC_TF_STATIC, cv.TF_MESSAGE, cdr, pose.stamp_ns)
 
 
 def write_scene_set(
@@ -63,7 +80,9 @@ def write_scene_set(
             k: SceneKind = MIXED_CYCLE[i % len(MIXED_CYCLE)] if kind == "mixed" else kind  # type: ignore[assignment]
             stamp_ns = START_NS + i * period_ns
             f = render_scene(make_scene(board, k, rng), rng, camera)
-            w.write_flange_pose(TOPIC_FLANGE_POSE, _flange(f.T_base_flange, stamp_ns, board.frame_id))
+            pose = _flange(f.T_base_flange, stamp_ns, board.frame_id)
+            w.write_flange_pose(TOPIC_FLANGE_POSE, pose)
+            write_tf(w, pose, DEFAULT_T_FLANGE_CAM if i == 0 else None)
             if frames in ("base", "both"):
                 cdr = pointcloud.encode_points(
                     f.points_base, stamp_ns=stamp_ns, frame_id=board.frame_id, rgb=f.render.rgb

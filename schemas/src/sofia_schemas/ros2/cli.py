@@ -1,0 +1,60 @@
+"""``sofia ros2 serve`` and ``sofia ros2 types`` (the shipped ROS 2 types and their RIHS01 hashes)."""
+
+from __future__ import annotations
+
+import argparse
+import os
+
+from ..keys import default_robot
+from ..zenoh_config import ZenohOptions, add_zenoh_args
+
+
+def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+    p = sub.add_parser("ros2", help="SofIA on the ROS 2 graph (rmw_zenoh): topics, services, tf")
+    s = p.add_subparsers(dest="ros2_cmd", required=True)
+    serve = s.add_parser("serve", help="offer SofIA's topics and services to ROS 2 nodes using rmw_zenoh")
+    serve.add_argument("--robot", default=None)
+    serve.add_argument("--domain", type=int, default=None, help="ROS domain id (default $ROS_DOMAIN_ID or 0)")
+    serve.add_argument(
+        "--camera-frame",
+        default="camera_color_optical_frame",
+        help="child frame of the calibration on /tf_static (the clouds' frame_id)",
+    )
+    serve.add_argument(
+        "--camera-topic",
+        default="/camera/camera/depth/color/points",
+        help="ROS 2 PointCloud2 topic taken in as camera-frame clouds ('' for none)",
+    )
+    serve.add_argument("--no-tf-input", action="store_true", help="do not take the flange pose from /tf")
+    serve.add_argument("--base-frame", default="panda_link0")
+    serve.add_argument("--flange-frame", default="panda_link8")
+    add_zenoh_args(serve)
+    serve.set_defaults(func=_serve)
+    types = s.add_parser("types", help="print the shipped ROS 2 types with their RIHS01 type hashes")
+    types.set_defaults(func=_types)
+
+
+def _serve(args: argparse.Namespace) -> int:
+    from .bridge import BridgeConfig
+    from .service import ServiceConfig, main
+
+    bridge = BridgeConfig(
+        robot=args.robot or default_robot(), domain=args.domain, camera_frame=args.camera_frame,
+        camera_topic=args.camera_topic, tf_input=not args.no_tf_input, base_frame=args.base_frame,
+        flange_frame=args.flange_frame,
+    )  # fmt: skip
+    return main(ServiceConfig(bridge, ZenohOptions.from_args(args)))
+
+
+def _types(_args: argparse.Namespace) -> int:
+    from .typesupport import dds_type_name, shipped_types, type_hash
+
+    for name in shipped_types():
+        print(f"{name:40s} {dds_type_name(name):50s} {type_hash(name)}")
+    return 0
+
+
+def enabled(env: dict[str, str] | None = None) -> bool:
+    """``$SOFIA_ROS2`` is set to 1/true/yes/on."""
+    value = (env if env is not None else os.environ).get("SOFIA_ROS2", "")
+    return value.strip().lower() in ("1", "true", "yes", "on")

@@ -1,0 +1,38 @@
+"""``sofia viz serve``: the live view for Foxglove (open ws://127.0.0.1:8765 in Foxglove)."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from sofia_schemas import Board
+from sofia_schemas.keys import default_robot
+from sofia_schemas.zenoh_config import ZenohOptions, add_zenoh_args
+
+LAYOUT = Path(__file__).with_name("data") / "layout.json"
+
+
+def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+    p = sub.add_parser("viz", help="live view in Foxglove (WebSocket server)")
+    s = p.add_subparsers(dest="viz_cmd", required=True)
+    serve = s.add_parser("serve", help="serve SofIA's bus to Foxglove over WebSocket")
+    serve.add_argument(
+        "--host", default="127.0.0.1", help="address to listen on (0.0.0.0 for other machines)"
+    )
+    serve.add_argument("--port", type=int, default=8765, help="WebSocket port (0: any free port)")
+    serve.add_argument("--board", type=Path, default=None, help="board YAML/JSON (default: the package's)")
+    serve.add_argument("--camera-frame", default="camera_color_optical_frame")
+    serve.add_argument("--robot", default=None)
+    add_zenoh_args(serve)
+    serve.set_defaults(func=_serve)
+    layout = s.add_parser("layout", help="print the path of the saved Foxglove layout")
+    layout.set_defaults(func=lambda _a: print(LAYOUT) or 0)
+
+
+def _serve(args: argparse.Namespace) -> int:
+    from .service import ServiceConfig, main
+
+    board = Board.from_file(args.board) if args.board else Board.default()
+    config = ServiceConfig(robot=args.robot or default_robot(), zenoh=ZenohOptions.from_args(args), board=board,
+                           host=args.host, port=args.port, camera_frame=args.camera_frame)  # fmt: skip
+    return main(config)

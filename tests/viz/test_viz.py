@@ -1,0 +1,103 @@
+"""``sofia viz serve`` as a separate process: a Foxglove WebSocket client (foxglove.sdk.v1, the protocol spoken by
+Foxglove, over ``websockets``) receives the advertised channels and decodes a cloud, a detection
+and transforms logged from the bus."""
+
+from __future__ import annotations
+
+import json
+import re
+import struct
+import time
+from typing import Any
+
+import numpy as np
+import zenoh
+from sofia_schemas import pointcloud
+from sofia_schemas.keys import ENCODING_CDR_POINTCLOUD2, ENCODING_JSON, Keys
+from sofia_schemas.messages import CalibrationResult, DetectedObject, Detection, FlangePose
+from sofia_schemas.ros2 import convert as cv
+from sofia_schemas.ros2.typesupport import decode
+from sofia_schemas.rosmsg import encode_flange_pose
+from sofia_schemas.transforms import matrix_to_quat_xyzw
+from sofia_schemas.zenoh_config import zenoh_config
+from websockets.sync.client import connect
+
+DEFAULT_T_FLANGE_CAM = np.array(
+    [[0.0, -1.0, 0.0, 0.065], [1.0, 0.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.045], [0, 0, 0, 1.0]]
+)
+WANTED = ("/sofia/points", "/sofia/detections", "/tf", "/tf_static", "/sofia/scene")
+
+
+def _calibration() -> CalibrationResult:
+    T = DEFAULT_T_FLANGE_CAM
+    return CalibrationResult(
+        stamp_ns=7, matrix=T.tolist(), translation=tuple(T[:3, 3]),  # type: ignore[arg-type]
+        quaternion_xyzw=tuple(matrix_to_quat_xyzw(T[:3, :3])),  # type: ignore[arg-type]
+        rpy=(0.0, 0.0, 0.0), target_base=(0.5, 0.0, 0.1), spread_mm=(1.0, 1.0, 1.0), passes=True,
+        n_samples=12, inliers=list(range(12)), outliers=[], residuals_mm=[0.5] * 12,
+        std_translation_mm=(0.1, 0.1, 0.1), std_rotation_deg=(0.01, 0.01, 0.01), dissipation_after=0.1,
+    )  # fmt: skip
+
+
+def test_foxglove_client_gets_channels_and_decodes(sofia_proc, robot_id: str) -> None:  # type: ignore[no-untyped-def]
+    keys = Keys(robot_id)
+    proc = sofia_proc("viz", "serve", "--port", "0")
+    proc.wait_for_log("viz ready")
+    port = int(re.search(r"ws://127\.0\.0\.1:(\d+)", proc.log()).group(1))  # type: ignore[union-attr]
+    cloud = pointcloud.encode_points(np.array([[0.5, 0.0, 0.1], [0.6, 0.1, 0.1]], np.float32), stamp_ns=11,
+                                     frame_id="panda_link0")  # fmt: skip
+    det = Detection(stamp_ns=11, frame_id="panda_link0", status="ok", objects=[DetectedObject(
+        center=(0.5, 0.0, 0.03), centroid=(0.5, 0.0, 0.04), extents=(0.04, 0.04, 0.06), yaw=0.2, field=(1, 1),
+        allowed=True, n_points=100, confidence=0.9)])  # fmt: skip
+    flange = FlangePose(stamp_ns=11, translation=(0.4, 0.0, 0.5), rotation_xyzw=(1.0, 0.0, 0.0, 0.0))
+    with connect(f"ws://127.0.0.1:{port}", subprotocols=["foxglove.sdk.v1"]) as ws, \
+            zenoh.open(zenoh_config()) as session:  # fmt: skip
+        channels: dict[str, dict[str, Any]] = {}
+        deadline = time.monotonic() + 20
+        while not set(WANTED) <= set(channels) and time.monotonic() < deadline:
+            msg = ws.recv(timeout=5)
+            if isinstance(msg, str) and json.loads(msg).get("op") == "advertise":
+                channels.update({c["topic"]: c for c in json.loads(msg)["channels"]})
+        assert set(WANTED) <= set(channels), sorted(channels)
+        assert channels["/sofia/points"]["schemaName"] == "sensor_msgs/msg/PointCloud2"
+        assert channels["/sofia/points"]["encoding"] == "cdr"
+        assert (
+            channels["/tf"]["schemaName"] == channels["/tf_static"]["schemaName"] == "tf2_msgs/msg/TFMessage"
+        )
+        by_sub = {i: topic for i, topic in enumerate(WANTED)}
+        ws.send(json.dumps({"op": "subscribe", "subscriptions": [
+            {"id": i, "channelId": channels[t]["id"]} for i, t in by_sub.items()]}))  # fmt: skip
+        time.sleep(0.5)
+        got: dict[str, bytes] = {}
+        deadline = time.monotonic() + 30
+        while len(got) < len(WANTED) and time.monotonic() < deadline:
+            session.put(keys.points, bytes(cloud), encoding=ENCODING_CDR_POINTCLOUD2)
+            session.put(keys.detections, det.to_json_bytes(), encoding=ENCODING_JSON)
+            session.put(keys.flange_pose, encode_flange_pose(flange))
+            session.put(keys.calibration_result, _calibration().to_json_bytes(), encoding=ENCODING_JSON)
+            end = time.monotonic() + 0.5
+            while time.monotonic() < end:
+                try:
+                    msg = ws.recv(timeout=0.2)
+                except TimeoutError:
+                    continue
+                if isinstance(msg, bytes) and msg[0] == 1:
+                    sub_id, _log_time = struct.unpack_from("<IQ", msg, 1)
+                    got.setdefault(by_sub[sub_id], msg[13:])
+    assert set(got) == set(WANTED), sorted(got)
+    points = pointcloud.decode(got["/sofia/points"])
+    assert points.frame_id == "panda_link0" and np.allclose(
+        points.xyz().reshape(-1, 3), [[0.5, 0, 0.1], [0.6, 0.1, 0.1]]
+    )
+    assert Detection.model_validate_json(got["/sofia/detections"]) == det
+    tf = decode(got["/tf"], cv.TF_MESSAGE).transforms[0]
+    assert (tf.header.frame_id, tf.child_frame_id, tf.transform.translation.z) == (
+        "panda_link0",
+        "panda_link8",
+        0.5,
+    )
+    static = decode(got["/tf_static"], cv.TF_MESSAGE).transforms[0]
+    assert (static.header.frame_id, static.child_frame_id) == ("panda_link8", "camera_color_optical_frame")
+    assert np.isclose(static.transform.translation.x, DEFAULT_T_FLANGE_CAM[0, 3])
+    assert len(got["/sofia/scene"]) > 0
+    assert proc.stop() == 0 and "Traceback" not in proc.log()

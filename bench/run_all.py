@@ -12,7 +12,22 @@ import time
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
-ORDER = ["bench_codec", "bench_replay", "bench_detector", "bench_calibrator", "bench_gripper", "bench_system"]
+ORDER = [
+    "bench_codec",
+    "bench_replay",
+    "bench_detector",
+    "bench_detector_real",
+    "bench_calibrator",
+    "bench_calibrator_burst",
+    "bench_gripper",
+    "bench_arm",
+    "bench_autocal",
+    "bench_camera",
+    "bench_grasp",
+    "bench_system",
+    "bench_fuzz",
+    "bench_memory",
+]
 
 
 def main() -> int:

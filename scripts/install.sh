@@ -31,6 +31,6 @@ echo "[install] pip install (SofIA packages + test tools)"
 "$VENV/bin/python" -m pip install -q --disable-pip-version-check --upgrade pip
 "$VENV/bin/python" -m pip install -q --disable-pip-version-check -c constraints.txt \
   -e "schemas[ros]" -e "replay[synth]" -e services/detector -e services/calibrator \
-  -e services/gripper -r requirements-dev.txt
+  -e services/gripper -e "services/camera[sim]" -e services/viz -e "services/arm[sim,calibrate]" -r requirements-dev.txt
 echo "$inputs" > "$stamp"
-echo "[install] done: $("$VENV/bin/sofia" --help | head -1)"
+echo "[install] done: $("$VENV/bin/sofia" --version) installed in $VENV"

@@ -26,7 +26,11 @@ def robot_id() -> str:
 
 
 class Proc:
-    """A ``sofia`` subprocess whose output goes to a log file."""
+    """A ``sofia`` subprocess, in a process group of its own (with the emulator or simulator it
+    starts), whose output goes to a log file. Every one is stopped at the end of the run, whatever
+    happened to the test that started it."""
+
+    started: list[Proc] = []
 
     def __init__(self, args: list[str], log_path: Path, env: dict[str, str]) -> None:
         self.args = args
@@ -36,6 +40,7 @@ class Proc:
             [SOFIA, *args], stdout=self._log, stderr=subprocess.STDOUT, env=env, cwd=REPO,
             start_new_session=True,
         )  # fmt: skip
+        Proc.started.append(self)
 
     def log(self) -> str:
         return self.log_path.read_text(errors="replace")
@@ -61,10 +66,17 @@ class Proc:
             try:
                 self.popen.wait(timeout)
             except subprocess.TimeoutExpired:
-                os.killpg(self.popen.pid, signal.SIGKILL)
+                self._kill_group()
                 self.popen.wait(5)
+        self._kill_group()  # whatever of its group outlived it (an emulator, a simulator)
         self._log.close()
         return int(self.popen.returncode)
+
+    def _kill_group(self) -> None:
+        try:
+            os.killpg(self.popen.pid, signal.SIGKILL)
+        except (ProcessLookupError, PermissionError):
+            pass
 
     def kill(self) -> None:
         """Kill hard (a crash), no clean shutdown."""
@@ -85,7 +97,17 @@ def sofia_proc(tmp_path: Path, robot_id: str) -> Iterator[Callable[..., Proc]]:
 
     yield start
     for p in reversed(procs):
-        p.stop()
+        try:
+            p.stop()
+        except (OSError, subprocess.SubprocessError):
+            p._kill_group()
+
+
+def pytest_sessionfinish(session: pytest.Session, exitstatus: int) -> None:
+    """No process of the run outlives it."""
+    for p in Proc.started:
+        if p.popen.poll() is None:
+            p._kill_group()
 
 
 def json_lines(text: str) -> list[dict[str, object]]:

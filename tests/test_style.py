@@ -16,6 +16,7 @@ PACKAGES = [
     "services/detector/src",
     "services/calibrator/src",
     "services/gripper/src",
+    "services/camera/src",
 ]
 MAX_MODULE_LINES = 300
 

@@ -152,8 +152,8 @@ def test_loop_until_stopped(
     path, written = recording
     keys = Keys(robot_id)
     got = collect(keys.all)
-    proc = sofia_proc("replay", "play", str(path), "--rate", "4", "--loop", "--topic", TOPIC_FLANGE_POSE,
-                      "--wait-subscribers", "20")  # fmt: skip
+    proc = sofia_proc("replay", "play", str(path), "--rate", "4", "--loop", "--no-restamp", "--topic",
+                      TOPIC_FLANGE_POSE, "--wait-subscribers", "20")  # fmt: skip
     received = got.wait_for(keys.flange_pose, 2 * N + 1, timeout=30)
     assert proc.stop() == 0
     assert len(received) >= 2 * N + 1

@@ -375,7 +375,7 @@ def test_secure_router_and_client_configs_load_in_zenoh() -> None:
         zenoh.Config.from_json5('{transport: {link: {tls: {listen_certificat: "/x"}}}}')
 
 
-def test_the_secure_overlay_puts_every_service_on_tls_with_credentials() -> None:
+def test_the_secure_overlay_puts_every_service_on_tls_with_credentials(tmp_path: Path) -> None:
     overlay = yaml.safe_load((REPO / "docker/compose.secure.yaml").read_text())
     assert schema_errors(overlay) == []
     assert set(overlay["services"]) == set(services()), "every service of compose.yaml is covered"
@@ -393,6 +393,9 @@ def test_the_secure_overlay_puts_every_service_on_tls_with_credentials() -> None
         config = mounts(service)[env["SOFIA_ZENOH_CONFIG"]]
         assert config == "./docker/zenoh/client-secure.json5", name
         env["SOFIA_ZENOH_CONFIG"] = str(REPO / config)  # the host copy of the mounted file
+        assert env["SOFIA_ZENOH_USER"] == name.removesuffix("-emulated"), "each service its own identity"
+        (tmp_path / "pw").write_text("a password\n")  # stands for /etc/sofia/certs/<user>.password
+        env["SOFIA_ZENOH_PASSWORD_FILE"] = str(tmp_path / "pw")
         settings = resolve(env=env)
         assert settings["connect"] == [f"tls/{ROUTER}:7447"] and settings["mode"] == "client"
         zenoh_config(env=env)  # the service's own helper builds a valid Zenoh config from it
@@ -437,7 +440,8 @@ def test_profiles_keep_the_optional_services_off_by_default() -> None:
     profiles = {name: s.get("profiles", []) for name, s in services().items()}
     assert profiles == {
         "zenoh": [], "detector": [], "calibrator": [],
-        "gripper": ["gripper"], "gripper-emulated": ["emulate"], "replay": ["replay"],
+        "gripper": ["gripper"], "gripper-emulated": ["emulate"], "replay": ["replay"], "camera": ["robot"],
+        "arm": ["robot"], "ros2": [], "viz": ["viz"],
     }  # fmt: skip
 
 

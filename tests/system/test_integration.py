@@ -213,7 +213,8 @@ def test_services_killed_mid_stream_come_back(system: System) -> None:
     dets = Collector(system.session, system.keys.detections, Detection)
     env = dict(os.environ, SOFIA_ROBOT=system.robot)
     player = subprocess.Popen(
-        [SOFIA, "replay", "play", str(system.scenes), "--topic", TOPIC_POINTS, "--loop", "--robot", system.robot],
+        [SOFIA, "replay", "play", str(system.scenes), "--topic", TOPIC_POINTS, "--loop", "--no-restamp",
+         "--robot", system.robot],  # recorded stamps: each detection is matched to its frame's truth
         env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
     )  # fmt: skip
     try:

@@ -1,10 +1,15 @@
-"""``sofia replay {play,info,convert}`` and ``sofia synth {scenes,calibration}``."""
+"""``sofia replay {play,info,convert,export}`` and ``sofia synth {scenes,calibration}``.
+
+Exit codes: 0 done, 1 the job failed, 2 a usage or input error (a missing or unreadable file, a
+topic the recording does not have).
+"""
 
 from __future__ import annotations
 
 import argparse
 import json
 import logging
+import time
 from pathlib import Path
 
 from sofia_schemas.keys import default_robot
@@ -14,55 +19,84 @@ log = logging.getLogger("sofia.replay")
 
 
 def register_replay(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
-    p = sub.add_parser("replay", help="play, inspect and convert recordings (MCAP, ROS 1 bags)")
-    s = p.add_subparsers(dest="replay_cmd", required=True)
+    p = sub.add_parser(
+        "replay", help="play, inspect, convert and export recordings (MCAP, ROS 1 bags)",
+        description="Stream MCAP recordings onto the bus, summarise them, convert the lab's ROS 1 bags "
+        "and export single messages (e.g. a cloud for `sofia query --payload`).",
+    )  # fmt: skip
+    s = p.add_subparsers(dest="replay_cmd", required=True, metavar="ACTION")
 
     play = s.add_parser("play", help="stream an MCAP recording to its Zenoh keys")
     play.add_argument("file", type=Path, help="MCAP file")
     speed = play.add_mutually_exclusive_group()
-    speed.add_argument("--rate", type=float, default=1.0, help="speed multiplier of the recorded rate")
-    speed.add_argument("--fast", action="store_true", help="as fast as possible (no timing)")
-    play.add_argument("--loop", action="store_true", help="start again at the end, until stopped")
+    speed.add_argument("--rate", type=float, default=1.0, metavar="X",
+                       help="playback speed, a multiplier of the recorded rate (default 1.0: real time)")  # fmt: skip
+    speed.add_argument("--fast", action="store_true", help="as fast as possible, no timing (default: off)")
     play.add_argument(
-        "--restamp", action="store_true",
-        help="rewrite header stamps to the publish time (live-like data; loops get fresh stamps)",
+        "--loop", action="store_true", help="start again at the end, until stopped (default: off)"
+    )
+    play.add_argument(
+        "--restamp", action=argparse.BooleanOptionalAction, default=None,
+        help="rewrite header stamps to the publish time, wall clock (default: on with --loop, so stamps "
+        "never jump back; off otherwise: the recorded stamps)",
     )  # fmt: skip
-    play.add_argument(
-        "--map", action="append", default=[], metavar="TOPIC=KEY", help="publish TOPIC on Zenoh KEY"
-    )
-    play.add_argument("--topic", action="append", default=None, metavar="TOPIC", help="play only TOPIC")
-    play.add_argument(
-        "--start", type=float, default=None, metavar="S", help="from S s after the first message"
-    )
-    play.add_argument(
-        "--end", type=float, default=None, metavar="S", help="until S s after the first message"
-    )
+    play.add_argument("--map", action="append", default=[], metavar="TOPIC=KEY",
+                      help="publish TOPIC on Zenoh KEY, repeatable (default: the SofIA key of each topic)")  # fmt: skip
+    play.add_argument("--topic", action="append", default=None, metavar="TOPIC",
+                      help="play only TOPIC, repeatable (default: every topic)")  # fmt: skip
+    play.add_argument("--start", type=float, default=None, metavar="S",
+                      help="start S seconds after the first message (default: the beginning)")  # fmt: skip
+    play.add_argument("--end", type=float, default=None, metavar="S",
+                      help="stop S seconds after the first message (default: the end)")  # fmt: skip
     play.add_argument("--robot", default=None, help="robot id of the keys (default $SOFIA_ROBOT or panda)")
     play.add_argument(
         "--congestion", choices=["block", "drop"], default="block",
-        help="block: lossless, a stalled subscriber slows the replay; drop: live-sensor behaviour",
+        help="block: lossless, a stalled subscriber slows the replay; drop: live-sensor behaviour "
+        "(default block)",
     )  # fmt: skip
     play.add_argument(
         "--wait-subscribers", type=float, default=0.0, metavar="S",
-        help="wait up to S s until every key has a subscriber before playing",
+        help="wait up to S seconds until every key has a subscriber before playing (default 0: no wait)",
     )  # fmt: skip
-    play.add_argument("--progress", type=float, default=5.0, metavar="S", help="progress log period")
+    play.add_argument("--progress", type=float, default=5.0, metavar="S",
+                      help="seconds between progress log lines (default 5)")  # fmt: skip
     add_zenoh_args(play)
     play.set_defaults(func=_play)
 
     info = s.add_parser("info", help="topics, counts, schemas and duration of an MCAP file")
-    info.add_argument("file", type=Path)
-    info.add_argument("--json", action="store_true", help="print JSON")
-    info.add_argument("--truth", action="store_true", help="also print the ground truth metadata")
+    info.add_argument("file", type=Path, help="MCAP file")
+    info.add_argument("--json", action="store_true", help="print one JSON object (default: text)")
+    info.add_argument(
+        "--truth", action="store_true", help="also print the ground truth metadata (default: off)"
+    )
     info.set_defaults(func=_info)
 
     conv = s.add_parser("convert", help="convert a ROS 1 bag (e.g. perception.bag) to MCAP")
     conv.add_argument("input", type=Path, help="ROS 1 .bag")
-    conv.add_argument("output", type=Path, help="MCAP file to write")
-    conv.add_argument("--topic", action="append", default=[], metavar="IN=OUT", help="rename topic IN to OUT")
-    conv.add_argument("--only", action="append", default=None, metavar="TOPIC", help="convert only TOPIC")
-    conv.add_argument("--compression", choices=["zstd", "lz4", "none"], default="zstd")
+    conv.add_argument("output", type=Path, help="MCAP file to write (not written when nothing converts)")
+    conv.add_argument("--rename", action="append", default=[], metavar="IN=OUT",
+                      help="write topic IN as OUT, repeatable (default: names kept)")  # fmt: skip
+    conv.add_argument(
+        "--topic", action="append", dest="rename", help=argparse.SUPPRESS
+    )  # old name of --rename
+    conv.add_argument("--only", action="append", default=None, metavar="TOPIC",
+                      help="convert only TOPIC, repeatable (default: every topic of a converted type)")  # fmt: skip
+    conv.add_argument("--compression", choices=["zstd", "lz4", "none"], default="zstd",
+                      help="chunk compression of the MCAP (default zstd)")  # fmt: skip
     conv.set_defaults(func=_convert)
+
+    exp = s.add_parser(
+        "export", help="write one recorded message's payload (CDR bytes) to a file",
+        description="Write the payload of one message exactly as recorded, e.g. a cloud to send with "
+        "`sofia query sofia/panda/detector/detect --payload cloud.cdr`.",
+    )  # fmt: skip
+    exp.add_argument("file", type=Path, help="MCAP file")
+    exp.add_argument("--topic", default=None,
+                     help="topic to export from (default: /pc_glob, else the camera-frame clouds)")  # fmt: skip
+    exp.add_argument("--index", type=int, default=0, metavar="N",
+                     help="which message of the topic, 0 = first, -1 = last (default 0)")  # fmt: skip
+    exp.add_argument("--out", type=Path, required=True, metavar="FILE", help="file to write (e.g. cloud.cdr)")
+    exp.set_defaults(func=_export)
 
 
 def _play(args: argparse.Namespace) -> int:
@@ -82,7 +116,7 @@ def _play(args: argparse.Namespace) -> int:
         congestion=args.congestion,
         wait_subscribers_s=args.wait_subscribers,
         progress_period_s=args.progress,
-        restamp=args.restamp,
+        restamp=args.loop if args.restamp is None else args.restamp,
     )
     robot = args.robot or default_robot()
     stop = StopFlag()
@@ -115,7 +149,7 @@ def _info(args: argparse.Namespace) -> int:
 def _convert(args: argparse.Namespace) -> int:
     from .convert import convert_bag, parse_topic_map
 
-    report = convert_bag(args.input, args.output, parse_topic_map(args.topic), args.only, args.compression)
+    report = convert_bag(args.input, args.output, parse_topic_map(args.rename), args.only, args.compression)
     print(f"{args.output}: {report.n_written} messages")
     for topic, n in sorted(report.written.items()):
         print(f"  {topic}: {n}")
@@ -123,29 +157,50 @@ def _convert(args: argparse.Namespace) -> int:
         print(f"  skipped {topic} ({msgtype})")
     for topic, n in sorted(report.rejected.items()):
         print(f"  rejected {n} messages of {topic}")
-    return 0 if report.n_written else 1
+    return 0
+
+
+def _export(args: argparse.Namespace) -> int:
+    from .export import export_message
+
+    m = export_message(args.file, args.out, args.topic, args.index)
+    print(
+        f"{args.out}: {m.topic}[{args.index}] ({m.schema_name}, {len(m.data)} bytes, log time {m.log_time_ns} ns)"
+    )
+    return 0
 
 
 # --- synthetic data ---------------------------------------------------------------------------------
 def register_synth(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
-    p = sub.add_parser("synth", help="render synthetic SofIA recordings (needs open3d)")
-    s = p.add_subparsers(dest="synth_cmd", required=True)
+    p = sub.add_parser(
+        "synth", help="render synthetic SofIA recordings (needs open3d)",
+        description="Render synthetic MCAP recordings with D435-like noise and their ground truth.",
+    )  # fmt: skip
+    s = p.add_subparsers(dest="synth_cmd", required=True, metavar="KIND")
 
     sc = s.add_parser("scenes", help="board scenes with objects, clouds in base and camera frame")
     sc.add_argument("output", type=Path, help="MCAP file to write")
-    sc.add_argument("--kind", default="mixed", choices=["one", "empty", "nonred", "two", "mixed"])
-    sc.add_argument("-n", type=int, default=10, help="number of frames")
-    sc.add_argument("--seed", type=int, default=0)
-    sc.add_argument("--rate", type=float, default=10.0, help="frame rate of the recording, Hz")
+    sc.add_argument("--kind", default="mixed", choices=["one", "empty", "nonred", "two", "mixed"],
+                    help="objects per scene: one on a red field, empty board, one on a non-red field, "
+                    "two, or a mix (default mixed)")  # fmt: skip
+    sc.add_argument("-n", "--n-scenes", dest="n", type=int, default=10, metavar="N",
+                    help="number of scenes, one cloud each (default 10)")  # fmt: skip
+    sc.add_argument("--seed", type=int, default=0, help="random seed of the scenes and noise (default 0)")
+    sc.add_argument("--hz", type=float, default=10.0, help="frame rate of the recording, Hz (default 10)")
+    sc.add_argument("--rate", type=float, dest="hz", help=argparse.SUPPRESS)  # old name of --hz
     sc.add_argument("--board", type=Path, default=None, help="board YAML/JSON (default: the shipped board)")
-    sc.add_argument("--frames", choices=["base", "camera", "both"], default="both")
+    sc.add_argument("--frames", choices=["base", "camera", "both"], default="both",
+                    help="clouds in the base frame (/pc_glob), camera frame, or both (default both)")  # fmt: skip
     sc.set_defaults(func=_synth_scenes)
 
     cal = s.add_parser("calibration", help="a hand-eye calibration session (blob target)")
     cal.add_argument("output", type=Path, help="MCAP file to write")
-    cal.add_argument("--poses", type=int, default=12)
-    cal.add_argument("--seed", type=int, default=0)
-    cal.add_argument("--no-clouds", action="store_true", help="only poses and blob observations")
+    cal.add_argument("--n-poses", type=int, default=12, metavar="N",
+                     help="number of robot poses of the session (default 12)")  # fmt: skip
+    cal.add_argument("--poses", type=int, dest="n_poses", help=argparse.SUPPRESS)  # old name of --n-poses
+    cal.add_argument("--seed", type=int, default=0, help="random seed of the poses and noise (default 0)")
+    cal.add_argument("--no-clouds", action="store_true",
+                     help="only poses and blob observations, no camera clouds (default: with clouds)")  # fmt: skip
     cal.set_defaults(func=_synth_calibration)
 
 
@@ -156,15 +211,18 @@ def _synth_scenes(args: argparse.Namespace) -> int:
 
     board = Board.from_file(args.board) if args.board else None
     args.output.parent.mkdir(parents=True, exist_ok=True)
+    t0 = time.monotonic()
+    log.info("rendering %d scenes (%s) into %s ...", args.n, args.kind, args.output)
     write_scene_set(
         args.output,
         kind=args.kind,
         n=args.n,
         seed=args.seed,
-        rate_hz=args.rate,
+        rate_hz=args.hz,
         board=board,
         frames=args.frames,
     )
+    log.info("%d scenes written in %.1f s", args.n, time.monotonic() - t0)
     print(args.output)
     return 0
 
@@ -173,6 +231,9 @@ def _synth_calibration(args: argparse.Namespace) -> int:
     from .synth.record import write_calibration_session
 
     args.output.parent.mkdir(parents=True, exist_ok=True)
-    write_calibration_session(args.output, n_poses=args.poses, seed=args.seed, clouds=not args.no_clouds)
+    t0 = time.monotonic()
+    log.info("rendering a %d-pose calibration session into %s ...", args.n_poses, args.output)
+    write_calibration_session(args.output, n_poses=args.n_poses, seed=args.seed, clouds=not args.no_clouds)
+    log.info("%d poses written in %.1f s", args.n_poses, time.monotonic() - t0)
     print(args.output)
     return 0

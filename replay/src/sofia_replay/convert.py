@@ -10,6 +10,7 @@ rejects (e.g. big-endian) is skipped with a warning naming the reason.
 from __future__ import annotations
 
 import logging
+import time
 from collections import Counter
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -19,13 +20,17 @@ from sofia_schemas import pointcloud
 from sofia_schemas.errors import PointCloudError
 from sofia_schemas.rosmsg import POINT_STAMPED, POINTCLOUD2, TRANSFORM_STAMPED, typestore
 
-from .errors import BadBagError, BadMappingError, RecordingNotFoundError
+from .errors import BadBagError, BadMappingError, NothingConvertedError, RecordingNotFoundError
 from .mcap_io import McapWriter
 
 log = logging.getLogger(__name__)
 
 POSE_STAMPED = "geometry_msgs/msg/PoseStamped"
 TF_MESSAGE = "tf2_msgs/msg/TFMessage"
+PROGRESS_PERIOD_S = 2.0  # seconds between progress log lines
+REINDEX_HINT = (
+    "the bag looks truncated or was not closed: run `rosbag reindex {name}` (ROS 1), then convert again"
+)
 
 # ROS 1 type (as rosbags names it) -> ROS 2 type written to the MCAP
 CONVERTED_TYPES: dict[str, str] = {
@@ -73,6 +78,8 @@ def convert_bag(
 
     topic_map: input topic -> output topic (others keep their name).
     topics: input topics to convert (default: every topic of a converted type).
+    Raises BadBagError for an unreadable bag (with the ``rosbag reindex`` hint when its index is
+    damaged) and NothingConvertedError when no message converts; ``dst`` is then not left behind.
     """
     from rosbags.rosbag1 import Reader, ReaderError
 
@@ -84,6 +91,9 @@ def convert_bag(
     report = ConversionReport()
     try:
         with Reader(src) as reader, McapWriter(dst, compression=compression) as writer:
+            bag_counts: Counter[str] = Counter()
+            for conn in reader.connections:
+                bag_counts[conn.topic] += conn.msgcount
             connections = []
             for conn in reader.connections:
                 if topics is not None and conn.topic not in topics:
@@ -99,15 +109,45 @@ def convert_bag(
                 log.warning("topics not in %s: %s", src, sorted(missing))
             # an empty selection means "every connection" to rosbags
             messages = reader.messages(connections=connections) if connections else iter(())
-            for conn, log_time_ns, raw in messages:
+            n_total = sum(c.msgcount for c in connections)
+            next_progress = time.monotonic() + PROGRESS_PERIOD_S
+            for n, (conn, log_time_ns, raw) in enumerate(messages, 1):
                 _convert_one(ts2, writer, report, conn, log_time_ns, raw, topic_map)
+                if time.monotonic() >= next_progress:
+                    log.info("converted %d of %d messages (%.0f %%)", n, n_total, 100 * n / max(n_total, 1))
+                    next_progress = time.monotonic() + PROGRESS_PERIOD_S
             writer.add_metadata("sofia.source", {"bag": src.name, "converter": "sofia replay convert"})
     except ReaderError as e:
         dst.unlink(missing_ok=True)
-        raise BadBagError(src, str(e)) from None
+        reason = str(e)
+        if "index" in reason.lower():
+            reason += "; " + REINDEX_HINT.format(name=src.name)
+        raise BadBagError(src, reason) from None
+    except BaseException:  # an interrupted or failed conversion leaves no partial MCAP
+        dst.unlink(missing_ok=True)
+        raise
+    if report.n_written == 0:
+        dst.unlink(missing_ok=True)
+        raise NothingConvertedError(src, _why_nothing(bag_counts, topics, report))
     for topic, n in sorted(report.written.items()):
         log.info("wrote %d messages on %s", n, topic)
     return report
+
+
+def _why_nothing(bag_counts: Counter[str], topics: list[str] | None, report: ConversionReport) -> str:
+    """Why a conversion wrote no message, from the bag's topic counts and the report."""
+    if sum(bag_counts.values()) == 0:
+        return "the bag holds no message" + (
+            f" (topics {', '.join(sorted(bag_counts))})" if bag_counts else ""
+        )
+    if report.rejected:
+        return f"all {sum(report.rejected.values())} messages were rejected (see the warnings)"
+    if topics is not None and not set(topics) & set(bag_counts):
+        return f"no topic {', '.join(topics)} in the bag (its topics: {', '.join(sorted(bag_counts))})"
+    if report.skipped_topics:
+        skipped = ", ".join(f"{t} ({m})" for t, m in sorted(report.skipped_topics.items()))
+        return f"no topic of a converted type (skipped {skipped}; converted: {', '.join(sorted(CONVERTED_TYPES))})"
+    return "no message on the topics selected"
 
 
 def _convert_one(

@@ -39,3 +39,24 @@ class BadMappingError(RecordingError):
 class BadBagError(RecordingError):
     def __init__(self, path: Path | str, reason: str) -> None:
         super().__init__(f"{str(path)!r} is not a readable ROS 1 bag: {reason}")
+
+
+class NoSuchTopicError(RecordingError):
+    def __init__(self, path: Path | str, missing: list[str], topics: list[str]) -> None:
+        super().__init__(
+            f"{str(path)!r} has no topic {', '.join(missing)} (its topics: {', '.join(topics) or 'none'})"
+        )
+
+
+class NoSuchMessageError(RecordingError):
+    def __init__(self, path: Path | str, topic: str, index: int, count: int) -> None:
+        super().__init__(
+            f"{str(path)!r} has {count} messages on {topic}: index {index} is not in 0..{count - 1}"
+            if count
+            else f"{str(path)!r} has no message on {topic}"
+        )
+
+
+class NothingConvertedError(RecordingError):
+    def __init__(self, path: Path | str, reason: str) -> None:
+        super().__init__(f"nothing to convert in {str(path)!r}: {reason}; no MCAP written")

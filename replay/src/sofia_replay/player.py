@@ -31,7 +31,7 @@ from sofia_schemas.messages import ServiceStatus, now_ns
 from sofia_schemas.rosmsg import POINT_STAMPED, POINTCLOUD2, TRANSFORM_STAMPED
 from sofia_schemas.service import StatusEndpoint, StopFlag
 
-from .errors import BadMappingError, RecordingError
+from .errors import BadMappingError, NoSuchTopicError, RecordingError
 from .mcap_io import RecordedMessage, iter_messages, summary
 from .stamps import HEADER_FIRST, restamp
 
@@ -122,6 +122,9 @@ class Player:
         self.keys = Keys(robot)
         self.options = options
         self.summary = summary(self.path)
+        missing = sorted(set(options.topics or []) - set(self.summary.topics))
+        if missing:  # before anything is declared: nothing to undo
+            raise NoSuchTopicError(self.path, missing, sorted(self.summary.topics))
         self.result = PlayResult()
         self._publishers: dict[str, Any] = {}
         self._state = "starting"

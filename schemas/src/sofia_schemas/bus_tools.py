@@ -24,33 +24,57 @@ HEALTHY = ("ok", "degraded")
 
 
 def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
-    p = sub.add_parser("echo", help="print what arrives on a key expression")
+    p = sub.add_parser(
+        "echo", help="print what arrives on a key expression",
+        description="Print what arrives on a key expression: JSON pretty-printed, point clouds summarised. "
+        "Exit 1 when --count messages did not arrive before --timeout.",
+    )  # fmt: skip
     p.add_argument("key", help="key expression, e.g. 'sofia/panda/detector/detections' or 'sofia/**'")
-    p.add_argument("--count", type=int, default=0, help="stop after N messages (0: run until Ctrl-C)")
-    p.add_argument("--timeout", type=float, default=0.0, help="stop after S seconds (0: no limit)")
-    p.add_argument("--json", action="store_true", help="one JSON object per line")
+    p.add_argument(
+        "--count", type=int, default=0, metavar="N", help="stop after N messages (default 0: until Ctrl-C)"
+    )
+    p.add_argument(
+        "--timeout", type=float, default=0.0, metavar="S", help="stop after S seconds (default 0: no limit)"
+    )
+    p.add_argument("--json", action="store_true", help="one JSON object per line (default: indented text)")
     add_zenoh_args(p)
     p.set_defaults(func=echo)
 
-    p = sub.add_parser("query", help="send a query and print the replies")
+    p = sub.add_parser(
+        "query", help="send a query and print the replies",
+        description="Send a query and print every reply. Exit 1 on an error reply or no reply, 2 when "
+        "the --payload file is missing.",
+    )  # fmt: skip
     p.add_argument("key", help="e.g. sofia/panda/detector/detect")
     g = p.add_mutually_exclusive_group()
-    g.add_argument("--payload", type=Path, help="file whose bytes are the query payload")
-    g.add_argument("--data", help="the query payload as a string (e.g. JSON)")
-    p.add_argument("--timeout", type=float, default=10.0)
-    p.add_argument("--json", action="store_true", help="one JSON object per line")
+    g.add_argument("--payload", type=Path, metavar="FILE",
+                   help="file whose bytes are the query payload, e.g. a cloud from `sofia replay export` "
+                   "(default: no payload)")  # fmt: skip
+    g.add_argument("--data", help="the query payload as a string, e.g. JSON (default: no payload)")
+    p.add_argument(
+        "--timeout", type=float, default=10.0, metavar="S", help="seconds to wait for replies (default 10)"
+    )
+    p.add_argument("--json", action="store_true", help="one JSON object per line (default: indented text)")
     add_zenoh_args(p)
     p.set_defaults(func=query)
 
     p = sub.add_parser("health", help="exit 0 when SERVICE answers its status and is healthy")
     p.add_argument("service", help="detector, calibrator, gripper, replay")
-    p.add_argument("--robot", default=None)
-    p.add_argument("--timeout", type=float, default=5.0)
+    p.add_argument("--robot", default=None, help="robot id (default $SOFIA_ROBOT or panda)")
+    p.add_argument(
+        "--timeout", type=float, default=5.0, metavar="S", help="seconds to wait for the status (default 5)"
+    )
     add_zenoh_args(p)
     p.set_defaults(func=health)
 
-    p = sub.add_parser("router", help="run a Zenoh router (what `sofia up` starts)")
+    p = sub.add_parser(
+        "router", help="run a Zenoh router (what `sofia up` starts)",
+        description="A Zenoh router on its own, until Ctrl-C; --listen sets where it listens.",
+    )  # fmt: skip
     add_zenoh_args(p)
+    for action in p._actions:  # a router is always in router mode: the option is not offered
+        if action.dest == "zenoh_mode":
+            action.help = argparse.SUPPRESS
     p.set_defaults(func=router)
 
 
@@ -70,7 +94,9 @@ def echo(args: argparse.Namespace) -> int:
 
     def on_sample(sample: zenoh.Sample) -> None:
         nonlocal count
-        with lock:
+        with lock:  # samples keep arriving until the session closes: print no more than --count
+            if args.count and count >= args.count:
+                return
             _print(str(sample.key_expr), sample.payload.to_bytes(), str(sample.encoding), args.json)
             count += 1
             if args.count and count >= args.count:
@@ -84,6 +110,13 @@ def echo(args: argparse.Namespace) -> int:
 
 
 def query(args: argparse.Namespace) -> int:
+    if args.payload is not None and not args.payload.is_file():
+        print(
+            f"sofia query: error: --payload file {str(args.payload)!r} does not exist "
+            "(`sofia replay export FILE.mcap --out cloud.cdr` writes one)",
+            file=sys.stderr,
+        )
+        return 2
     payload = args.payload.read_bytes() if args.payload else (args.data.encode() if args.data else None)
     n_ok = n_err = 0
     with zenoh.open(zenoh_config(ZenohOptions.from_args(args))) as session:
@@ -118,6 +151,9 @@ def health(args: argparse.Namespace) -> int:
 
 def router(args: argparse.Namespace) -> int:
     options = ZenohOptions.from_args(args)
+    if options.mode not in (None, "router"):
+        print(f"sofia router: error: a router runs in router mode, not {options.mode!r}", file=sys.stderr)
+        return 2
     options.mode = "router"
     stop = StopFlag()
     with zenoh.open(zenoh_config(options)) as session:

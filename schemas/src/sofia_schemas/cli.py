@@ -1,6 +1,11 @@
 """The ``sofia`` command. Each installed SofIA package adds its subcommands through the
 ``sofia.commands`` entry-point group: an entry point is a function ``register(subparsers)`` that
 adds one or more subparsers and sets ``func(args) -> int`` on them with ``set_defaults``.
+
+Exit codes, the same for every command: 0 success; 1 the job failed (no reply, an error reply, no
+object when one was required, a failed check); 2 a usage or input error (a bad option, a missing
+or unreadable input file, a value out of range). ``func`` returns 0 or 1; input errors are raised
+as ``ValueError`` or ``OSError`` and turned into exit 2 with their message here.
 """
 
 from __future__ import annotations
@@ -8,8 +13,9 @@ from __future__ import annotations
 import argparse
 import json
 import logging
+import os
 import sys
-from importlib.metadata import entry_points
+from importlib.metadata import PackageNotFoundError, entry_points, version
 from pathlib import Path
 
 from .messages import ALL_MESSAGES
@@ -17,11 +23,34 @@ from .messages import ALL_MESSAGES
 log = logging.getLogger("sofia")
 
 
+EXIT_OK, EXIT_FAILED, EXIT_USAGE = 0, 1, 2
+
+
+class HelpFormatter(argparse.HelpFormatter):
+    """Appends an option's default to its help when the help does not already name it."""
+
+    def _get_help_string(self, action: argparse.Action) -> str | None:
+        text = action.help or ""
+        shown = action.default not in (None, False, argparse.SUPPRESS, [])
+        if not action.option_strings or not shown or "default" in text or "%(default)" in text:
+            return text
+        return f"{text} (default %(default)s)"
+
+
+def sofia_version() -> str:
+    try:
+        return version("sofia-schemas")
+    except PackageNotFoundError:  # running from a source tree that is not installed
+        return "unknown"
+
+
 def register_schemas(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
-    p = sub.add_parser("schemas", help="message schemas")
-    s = p.add_subparsers(dest="schemas_cmd", required=True)
+    p = sub.add_parser("schemas", help="message schemas", description="The JSON Schemas of the bus messages.")
+    s = p.add_subparsers(dest="schemas_cmd", required=True, metavar="ACTION")
     e = s.add_parser("export", help="write the JSON Schema of every bus message into DIR")
-    e.add_argument("dir", type=Path)
+    e.add_argument(
+        "dir", type=Path, help="folder to write <Message>.schema.json files into (made if missing)"
+    )
     e.set_defaults(func=_export)
 
 
@@ -35,18 +64,45 @@ def _export(args: argparse.Namespace) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="sofia", description="SofIA: calibrate, detect, grasp.")
-    parser.add_argument("--log-level", default="INFO", help="DEBUG, INFO, WARNING, ERROR")
+    parser = argparse.ArgumentParser(
+        prog="sofia", description="SofIA: calibrate, detect, grasp.",
+        epilog="exit codes: 0 success, 1 the job failed, 2 usage or input error",
+    )  # fmt: skip
+    parser.add_argument("--version", action="version", version=f"sofia {sofia_version()}")
+    parser.add_argument("--log-level", default="INFO", choices=("DEBUG", "INFO", "WARNING", "ERROR"),
+                        type=str.upper, help="log messages shown on stderr (default INFO)")  # fmt: skip
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     for ep in sorted(entry_points(group="sofia.commands"), key=lambda e: e.name):
         try:
             ep.load()(sub)
         except ImportError as e:  # a package whose optional dependencies are missing
             log.debug("command %s unavailable: %s", ep.name, e)
+    for p in iter_parsers(parser):
+        p.formatter_class = HelpFormatter
     return parser
 
 
+def iter_parsers(parser: argparse.ArgumentParser) -> list[argparse.ArgumentParser]:
+    """``parser`` and every subcommand parser under it, depth first."""
+    out = [parser]
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for child in dict.fromkeys(action.choices.values()):  # aliases map to the same parser
+                out.extend(iter_parsers(child))
+    return out
+
+
+def _error_text(e: Exception) -> str:
+    """``[Errno 2] No such file or directory: 'x'`` -> ``x: no such file or directory``."""
+    if isinstance(e, OSError) and e.filename is not None and e.strerror:
+        return f"{e.filename}: {e.strerror[0].lower()}{e.strerror[1:]}"
+    return str(e)
+
+
 def main(argv: list[str] | None = None) -> int:
+    from .memory import bound_heap
+
+    bound_heap()  # before any thread starts: few malloc arenas, so freed memory can go back
     parser = build_parser()
     args = parser.parse_args(argv)
     from .service import setup_logging
@@ -56,9 +112,12 @@ def main(argv: list[str] | None = None) -> int:
         return int(args.func(args) or 0)
     except KeyboardInterrupt:
         return 130
-    except (ValueError, FileNotFoundError, OSError) as e:
-        print(f"sofia {args.command}: error: {e}", file=sys.stderr)
-        return 2
+    except BrokenPipeError:  # `sofia ... | head`: the reader has seen enough
+        sys.stdout = open(os.devnull, "w")  # silences the flush at exit
+        return EXIT_OK
+    except (ValueError, OSError) as e:  # bad input: a file, a value (see the exit codes above)
+        print(f"sofia {args.command}: error: {_error_text(e)}", file=sys.stderr)
+        return EXIT_USAGE
 
 
 if __name__ == "__main__":

@@ -10,6 +10,7 @@ key                                payload                                      
 =================================  ==============================================  =========
 sofia/{robot}/points               CDR sensor_msgs/msg/PointCloud2, base frame     put
 sofia/{robot}/camera/points        CDR sensor_msgs/msg/PointCloud2, camera frame   put
+sofia/{robot}/camera/camera_info   CDR sensor_msgs/msg/CameraInfo (colour stream)  put
 sofia/{robot}/flange/pose          CDR geometry_msgs/msg/TransformStamped or       put
                                    JSON FlangePose (base -> flange)
 sofia/{robot}/detector/detections  JSON Detection                                  put
@@ -21,6 +22,10 @@ sofia/{robot}/calibrator/result    JSON CalibrationResult                       
 sofia/{robot}/calibrator/<op>      queryables: add, remove, reset, solve, save     queryable
 sofia/{robot}/gripper/state        JSON GripperState                               put
 sofia/{robot}/gripper/command      query: JSON GripperCommand -> GripperResult     queryable
+sofia/{robot}/arm/command          query: JSON ArmCommand -> ArmResult             queryable
+sofia/{robot}/arm/state            JSON ArmState                                   put
+sofia/{robot}/arm/joint_states     CDR sensor_msgs/msg/JointState                  put
+sofia/{robot}/arm/progress         JSON ArmPhase (calibration, pick and place)     put
 sofia/{robot}/pick/target          JSON PickTarget                                 put
 sofia/{robot}/<service>/status     JSON ServiceStatus                              put + queryable
 sofia/{robot}/replay/status        JSON ServiceStatus                              put
@@ -42,6 +47,7 @@ _ROBOT_RE = re.compile(r"[A-Za-z0-9_\-]+")
 # MCAP topic names (ROS 2 style) <-> bus keys. The lab's base-frame cloud topic is /pc_glob.
 TOPIC_POINTS = "/pc_glob"
 TOPIC_CAMERA_POINTS = "/camera/depth/color/points"
+TOPIC_CAMERA_INFO = "/camera/color/camera_info"
 TOPIC_FLANGE_POSE = "/sofia/flange_pose"
 TOPIC_BLOB = "/sofia/blob"
 
@@ -49,6 +55,8 @@ TOPIC_BLOB = "/sofia/blob"
 ENCODING_CDR_POINTCLOUD2 = "application/cdr;sensor_msgs/msg/PointCloud2"
 ENCODING_CDR_TRANSFORM = "application/cdr;geometry_msgs/msg/TransformStamped"
 ENCODING_CDR_POINT = "application/cdr;geometry_msgs/msg/PointStamped"
+ENCODING_CDR_CAMERA_INFO = "application/cdr;sensor_msgs/msg/CameraInfo"
+ENCODING_CDR_JOINT_STATE = "application/cdr;sensor_msgs/msg/JointState"
 ENCODING_JSON = "application/json"
 
 
@@ -87,6 +95,11 @@ class Keys:
     def camera_points(self) -> str:
         """Point clouds in the camera optical frame."""
         return f"{self.prefix}/camera/points"
+
+    @property
+    def camera_info(self) -> str:
+        """CameraInfo of the colour stream the camera clouds are in."""
+        return f"{self.prefix}/camera/camera_info"
 
     @property
     def flange_pose(self) -> str:
@@ -129,6 +142,27 @@ class Keys:
     def gripper_command(self) -> str:
         return f"{self.prefix}/gripper/command"
 
+    # --- arm --------------------------------------------------------------
+    @property
+    def arm_command(self) -> str:
+        """Arm commands: query JSON ArmCommand -> JSON ArmResult."""
+        return f"{self.prefix}/arm/command"
+
+    @property
+    def arm_state(self) -> str:
+        """JSON ArmState (mode, errors, moving, last command)."""
+        return f"{self.prefix}/arm/state"
+
+    @property
+    def arm_joint_states(self) -> str:
+        """Measured joint positions and velocities (CDR sensor_msgs/msg/JointState)."""
+        return f"{self.prefix}/arm/joint_states"
+
+    @property
+    def arm_progress(self) -> str:
+        """Steps of a running compound command (JSON ArmPhase per pose or phase)."""
+        return f"{self.prefix}/arm/progress"
+
     # --- system -----------------------------------------------------------
     @property
     def pick_target(self) -> str:
@@ -147,6 +181,7 @@ class Keys:
         return {
             TOPIC_POINTS: self.points,
             TOPIC_CAMERA_POINTS: self.camera_points,
+            TOPIC_CAMERA_INFO: self.camera_info,
             TOPIC_FLANGE_POSE: self.flange_pose,
             TOPIC_BLOB: self.blob,
         }

@@ -170,22 +170,44 @@ def default_specs(args: argparse.Namespace) -> list[ServiceSpec]:
     if "gripper" in args.services:
         port = ["--port", args.gripper_port] if args.gripper_port else ["--emulate"]
         specs.append(ServiceSpec("gripper", ["gripper", "serve", *port], "gripper"))
+    if "camera" in args.services:  # the D435 (opt-in: --services ...,camera), or its simulation
+        sim = ["--sim"] if getattr(args, "camera_sim", False) else []
+        specs.append(ServiceSpec("camera", ["camera", "serve", *sim], "camera"))
+    if "arm" in args.services:  # the Franka (opt-in: --services ...,arm), or franky-sim without --robot-ip
+        robot = ["--robot-ip", args.robot_ip] if getattr(args, "robot_ip", None) else ["--sim"]
+        specs.append(ServiceSpec("arm", ["arm", "serve", *robot], "arm"))
+    if getattr(args, "ros2", False) or os.environ.get("SOFIA_ROS2", "") in ("1", "true", "yes", "on"):
+        specs.append(ServiceSpec("ros2", ["ros2", "serve"], "ros2"))  # SofIA on the ROS 2 graph (rmw_zenoh)
     return specs
 
 
 def add_up_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--services", default="detector,calibrator,gripper", type=lambda s: s.split(","),
-                   help="comma-separated services to run (default: all)")  # fmt: skip
-    p.add_argument("--board", type=Path, default=Path("config/board.yaml"))
-    p.add_argument("--state-dir", type=Path, default=Path("var"))
-    p.add_argument("--log-dir", type=Path, default=Path("var/log"))
+                   help="comma-separated services to run (default: detector,calibrator,gripper; "
+                   "add camera for the D435, arm for the Franka)")  # fmt: skip
+    p.add_argument("--board", type=Path, default=Path("config/board.yaml"),
+                   help="board YAML/JSON the detector uses (default config/board.yaml)")  # fmt: skip
+    p.add_argument("--state-dir", type=Path, default=Path("var"),
+                   help="folder of the services' state, e.g. calibration samples in DIR/calibrator (default var)")  # fmt: skip
+    p.add_argument("--log-dir", type=Path, default=Path("var/log"),
+                   help="folder of the per-service logs, <service>.log (default var/log)")  # fmt: skip
     p.add_argument("--gripper-port", default=None, help="serial port of the real gripper (default: emulated)")
-    p.add_argument("--router-listen", default=DEFAULT_ROUTER_LISTEN[0])
-    p.add_argument("--robot", default=None)
+    p.add_argument("--camera-sim", action="store_true", help="camera: the simulated D435")
+    p.add_argument("--robot-ip", default=None, help="arm: the Franka's FCI address (default: franky-sim)")
+    p.add_argument("--router-listen", default=DEFAULT_ROUTER_LISTEN[0], metavar="ENDPOINT",
+                   help=f"where the Zenoh router listens (default {DEFAULT_ROUTER_LISTEN[0]})")  # fmt: skip
+    p.add_argument("--robot", default=None, help="robot id of every key (default $SOFIA_ROBOT or panda)")
+    p.add_argument("--ros2", action="store_true",
+                   help="also offer SofIA to ROS 2 nodes using rmw_zenoh (sofia ros2 serve); or $SOFIA_ROS2=1")  # fmt: skip
 
 
 def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
-    p = sub.add_parser("up", help="run the router and all services as local processes")
+    p = sub.add_parser(
+        "up", help="run the router and all services as local processes",
+        description="Start a Zenoh router and the services as separate processes, print a health table "
+        "when it changes, restart a crashed service with a growing back-off, write one log per service "
+        "and stop everything cleanly on Ctrl-C.",
+    )  # fmt: skip
     add_up_args(p)
     add_zenoh_args(p)
     p.set_defaults(func=up)

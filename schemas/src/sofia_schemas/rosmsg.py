@@ -121,3 +121,45 @@ def decode_blob(payload: bytes | bytearray | memoryview) -> BlobObservation:
         raise PayloadError(
             f"blob payload ({len(payload)} bytes) is neither JSON nor CDR {POINT_STAMPED}: {e}"
         ) from None
+
+
+JOINT_STATE = "sensor_msgs/msg/JointState"
+
+
+def encode_joint_state(
+    stamp_ns: int, names: list[str], position: np.ndarray, velocity: np.ndarray | None = None,
+    effort: np.ndarray | None = None, frame_id: str = "",
+) -> bytes:  # fmt: skip
+    """CDR ``sensor_msgs/msg/JointState``: joint ``names``, positions (rad), velocities (rad/s) and
+    efforts (Nm), each (n,) or empty."""
+    ts = typestore()
+
+    def arr(v: np.ndarray | None) -> np.ndarray:
+        return np.zeros(0) if v is None else np.ascontiguousarray(v, dtype=np.float64).ravel()
+
+    msg = ts.types[JOINT_STATE](
+        header=_header(stamp_ns, frame_id), name=list(names), position=arr(position),
+        velocity=arr(velocity), effort=arr(effort),
+    )  # fmt: skip
+    return bytes(ts.serialize_cdr(msg, JOINT_STATE))
+
+
+def decode_joint_state(
+    payload: bytes | bytearray | memoryview,
+) -> tuple[int, list[str], np.ndarray, np.ndarray, np.ndarray]:
+    """(stamp_ns, names, position, velocity, effort) of CDR ``sensor_msgs/msg/JointState`` bytes;
+    PayloadError when they are not one."""
+    try:
+        msg = typestore().deserialize_cdr(bytes(payload), JOINT_STATE)
+    except Exception as e:  # rosbags raises assorted errors on corrupt CDR
+        raise PayloadError(
+            f"joint state payload ({len(payload)} bytes) is not CDR {JOINT_STATE}: {e}"
+        ) from None
+    stamp_ns = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
+    return (
+        stamp_ns,
+        list(msg.name),
+        np.asarray(msg.position),
+        np.asarray(msg.velocity),
+        np.asarray(msg.effort),
+    )

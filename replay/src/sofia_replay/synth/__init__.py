@@ -1,5 +1,6 @@
 """Synthetic SofIA data rendered with Open3D ray casting: board scenes and calibration sessions."""
 
+from . import quiet_open3d  # noqa: F401  (first: Open3D's own warnings stay off the terminal)
 from .calibration import (
     CalibrationFrame,
     CalibrationSession,

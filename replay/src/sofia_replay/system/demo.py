@@ -28,14 +28,29 @@ log = logging.getLogger("sofia.demo")
 
 
 def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
-    p = sub.add_parser("demo", help="the end-to-end demo on synthetic recordings (no hardware)")
-    p.add_argument("--out", type=Path, default=Path("var/demo"), help="plots, logs and service state")
-    p.add_argument("--recordings", type=Path, default=Path("var/recordings"))
-    p.add_argument("--scenes", type=int, default=12, help="board scenes in the recording")
-    p.add_argument("--poses", type=int, default=12, help="poses of the calibration session")
-    p.add_argument("--board", type=Path, default=Path("config/board.yaml"))
-    p.add_argument("--robot", default=None)
-    p.set_defaults(func=lambda a: run_demo(a.out, a.recordings, a.scenes, a.poses, a.board, a.robot))
+    p = sub.add_parser(
+        "demo", help="the end-to-end demo on synthetic recordings (no hardware)",
+        description="Make synthetic recordings if missing, start the services, replay board scenes and a "
+        "calibration session, check every result against the recordings' ground truth, drive the "
+        "emulated gripper and write plots. Exit 0 only when every step passes, 1 otherwise.",
+    )  # fmt: skip
+    p.add_argument("--out", type=Path, default=Path("var/demo"),
+                   help="folder of the plots, logs and service state (default var/demo)")  # fmt: skip
+    p.add_argument("--recordings", type=Path, default=Path("var/recordings"),
+                   help="folder of the synthetic recordings, made when missing (default var/recordings)")  # fmt: skip
+    p.add_argument("--n-scenes", type=int, default=12, metavar="N",
+                   help="board scenes in a new scenes recording (default 12)")  # fmt: skip
+    p.add_argument("--scenes", type=int, dest="n_scenes", help=argparse.SUPPRESS)  # old name of --n-scenes
+    p.add_argument("--n-poses", type=int, default=12, metavar="N",
+                   help="robot poses of a new calibration recording (default 12)")  # fmt: skip
+    p.add_argument("--poses", type=int, dest="n_poses", help=argparse.SUPPRESS)  # old name of --n-poses
+    p.add_argument("--board", type=Path, default=Path("config/board.yaml"),
+                   help="board YAML/JSON the detector uses (default config/board.yaml)")  # fmt: skip
+    p.add_argument("--robot", default=None, help="robot id of every key (default $SOFIA_ROBOT or panda)")
+    p.add_argument("--no-cell", action="store_true",
+                   help="skip the closed loop in the simulated cell (franky-sim: calibrate, detect, pick and place)")  # fmt: skip
+    p.set_defaults(func=lambda a: run_demo(a.out, a.recordings, a.n_scenes, a.n_poses, a.board, a.robot,
+                                           not a.no_cell))  # fmt: skip
 
 
 def make_recordings(recordings: Path, n_scenes: int, n_poses: int) -> tuple[Path, Path]:
@@ -55,7 +70,7 @@ def make_recordings(recordings: Path, n_scenes: int, n_poses: int) -> tuple[Path
 
 
 def run_demo(out: Path, recordings: Path, n_scenes: int = 12, n_poses: int = 12, board: Path = Path("config/board.yaml"),
-             robot: str | None = None) -> int:  # fmt: skip
+             robot: str | None = None, cell: bool = True) -> int:  # fmt: skip
     robot = robot or default_robot()
     keys = Keys(robot)
     summary = Summary()
@@ -99,6 +114,10 @@ def run_demo(out: Path, recordings: Path, n_scenes: int = 12, n_poses: int = 12,
         steps.plots(scenes_mcap, calib_mcap, out, robot, summary)
     finally:
         launcher.stop()
+    if cell:  # the closed loop: the arm calibrates, the detector sees through it, the arm picks and places
+        from .closed_loop import run_cell
+
+        run_cell(out, robot, board, summary)
     return _finish(summary, t0)
 
 

@@ -134,6 +134,7 @@ def calibration(session: zenoh.Session, keys: Keys, calib_mcap: Path, robot: str
         f"  translation {np.round(res.translation, 4).tolist()} m, quaternion x y z w {np.round(res.quaternion_xyzw, 4).tolist()}"
     )
     say(f"  truth       {np.round(T_true[:3, 3], 4).tolist()} m")
+    say(f"  {res.camera_correction.describe()}")
     say(
         f"  spread per axis {np.round(res.spread_mm, 2).tolist()} mm ({'passes' if res.passes else 'fails'} the 1 cm criterion)"
     )

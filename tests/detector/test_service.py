@@ -197,22 +197,12 @@ def test_burst_keeps_only_the_latest_cloud(sofia_proc, robot_id: str, session, s
 
 
 def test_transform_from_the_calibrator(sofia_proc, robot_id: str, session, scenes) -> None:  # type: ignore[no-untyped-def]
-    from sofia_schemas.messages import CalibrationResult
-    from sofia_schemas.transforms import matrix_to_quat_xyzw
-
     keys = Keys(robot_id)
     proc = sofia_proc("detector", "serve")
     proc.wait_for_log("detector ready")
     dets, _sub = _collect(session, keys.detections)
     _wait_subscribed(session, keys)
-    T = DEFAULT_T_FLANGE_CAM
-    result = CalibrationResult(
-        stamp_ns=99, matrix=T.tolist(), translation=tuple(T[:3, 3]),  # type: ignore[arg-type]
-        quaternion_xyzw=tuple(matrix_to_quat_xyzw(T[:3, :3])),  # type: ignore[arg-type]
-        rpy=(0.0, 0.0, 0.0), target_base=(0.5, 0.0, 0.0), spread_mm=(1.0, 1.0, 1.0), passes=True,
-        n_samples=12, inliers=list(range(12)), outliers=[], residuals_mm=[0.5] * 12,
-        std_translation_mm=(0.1, 0.1, 0.1), std_rotation_deg=(0.01, 0.01, 0.01), dissipation_after=0.1,
-    )  # fmt: skip
+    result = _calibration_result(99)
     session.put(keys.calibration_result, result.to_json_bytes(), encoding=ENCODING_JSON)
     proc.wait_for_log("using T_flange_cam from the calibrator")
     f = scenes["sphere"].frame
@@ -231,18 +221,8 @@ def test_transform_from_the_calibrator(sofia_proc, robot_id: str, session, scene
 def test_a_result_published_before_the_detector_started_is_used(sofia_proc, robot_id: str, session) -> None:  # type: ignore[no-untyped-def]
     """The calibrator published its result before the detector started: the detector asks the
     result's queryable at start instead of waiting for the next result."""
-    from sofia_schemas.messages import CalibrationResult
-    from sofia_schemas.transforms import matrix_to_quat_xyzw
-
     keys = Keys(robot_id)
-    T = DEFAULT_T_FLANGE_CAM
-    result = CalibrationResult(
-        stamp_ns=77, matrix=T.tolist(), translation=tuple(T[:3, 3]),  # type: ignore[arg-type]
-        quaternion_xyzw=tuple(matrix_to_quat_xyzw(T[:3, :3])),  # type: ignore[arg-type]
-        rpy=(0.0, 0.0, 0.0), target_base=(0.5, 0.0, 0.0), spread_mm=(1.0, 1.0, 1.0), passes=True,
-        n_samples=12, inliers=list(range(12)), outliers=[], residuals_mm=[0.5] * 12,
-        std_translation_mm=(0.1, 0.1, 0.1), std_rotation_deg=(0.01, 0.01, 0.01), dissipation_after=0.1,
-    )  # fmt: skip
+    result = _calibration_result(77)
     payload = result.to_json_bytes()
     queryable = session.declare_queryable(
         keys.calibration_result, lambda q: q.reply(keys.calibration_result, payload, encoding=ENCODING_JSON)
@@ -252,3 +232,18 @@ def test_a_result_published_before_the_detector_started_is_used(sofia_proc, robo
         proc.wait_for_log("using T_flange_cam from the calibrator (result 77)", timeout=60)
     finally:
         queryable.undeclare()
+
+
+def _calibration_result(stamp_ns: int):  # type: ignore[no-untyped-def]
+    """A calibrator result holding the synthetic recordings' true T_flange_cam."""
+    from sofia_schemas.messages import CalibrationResult
+    from sofia_schemas.transforms import matrix_to_quat_xyzw
+
+    T = DEFAULT_T_FLANGE_CAM
+    return CalibrationResult(
+        stamp_ns=stamp_ns, matrix=T.tolist(), translation=tuple(T[:3, 3]),  # type: ignore[arg-type]
+        quaternion_xyzw=tuple(matrix_to_quat_xyzw(T[:3, :3])),  # type: ignore[arg-type]
+        rpy=(0.0, 0.0, 0.0), target_base=(0.5, 0.0, 0.0), spread_mm=(1.0, 1.0, 1.0), passes=True,
+        n_samples=12, inliers=list(range(12)), outliers=[], residuals_mm=[0.5] * 12,
+        std_translation_mm=(0.1, 0.1, 0.1), std_rotation_deg=(0.01, 0.01, 0.01), dissipation_after=0.1,
+    )  # fmt: skip

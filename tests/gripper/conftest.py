@@ -7,6 +7,7 @@ from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import pytest
+from dynamixel_sdk import PortHandler
 from sofia_gripper import Emulator, Gripper, GripperConfig
 from sofia_schemas.messages import GripperState
 
@@ -31,6 +32,15 @@ def make_config(path: str, protocol: int = 2, **kw: object) -> GripperConfig:
 def emulator(tmp_path: Path) -> Iterator[Emulator]:
     with Emulator(protocol=2, baud=BAUD, link_path=tmp_path / "ttyDXL") as emu:
         yield emu
+
+
+@pytest.fixture
+def port(emulator: Emulator) -> Iterator[PortHandler]:
+    """The emulator's tty opened with the real dynamixel_sdk, for packet-level tests."""
+    p = PortHandler(emulator.path)
+    assert p.setBaudRate(BAUD)
+    yield p
+    p.closePort()
 
 
 @pytest.fixture

@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import threading
 import time
-from collections.abc import Iterator
 
 import pytest
 from dynamixel_sdk import COMM_RX_TIMEOUT, COMM_SUCCESS, GroupSyncRead, PacketHandler, PortHandler
@@ -17,17 +16,9 @@ from sofia_gripper import Emulator, Gripper, GripperError, NotReady
 from sofia_gripper.control_table import WATCHDOG_TRIPPED
 from sofia_schemas.messages import GripperCommand as Cmd
 
-from .conftest import BAUD, make_config, wait_until
+from .conftest import make_config, wait_until
 
 P2_ERR_DATA_RANGE, P2_ERR_DATA_LENGTH, P2_ERR_LIMIT = 4, 5, 6
-
-
-@pytest.fixture
-def port(emulator: Emulator) -> Iterator[PortHandler]:
-    p = PortHandler(emulator.path)
-    assert p.setBaudRate(BAUD)
-    yield p
-    p.closePort()
 
 
 # --- Bus Watchdog(98) ------------------------------------------------------------------------

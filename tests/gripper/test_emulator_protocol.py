@@ -3,9 +3,7 @@
 from __future__ import annotations
 
 import time
-from collections.abc import Iterator
 
-import pytest
 import serial
 from dynamixel_sdk import (
     COMM_RX_CORRUPT,
@@ -23,14 +21,6 @@ from sofia_gripper import packets as pk
 from .conftest import BAUD
 
 P2_ERR_ACCESS, P2_ERR_LIMIT = 7, 6
-
-
-@pytest.fixture
-def port(emulator: Emulator) -> Iterator[PortHandler]:
-    p = PortHandler(emulator.path)
-    assert p.setBaudRate(BAUD)
-    yield p
-    p.closePort()
 
 
 def test_ping_read_write_and_eeprom_lock_p2(emulator: Emulator, port: PortHandler) -> None:

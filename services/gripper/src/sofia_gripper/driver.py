@@ -25,6 +25,7 @@ from .startup import configure, is_data_range, recover_watchdog
 
 log = logging.getLogger(__name__)
 FAILS_BEFORE_LOST = 3
+LOST_AFTER_S = 0.3  # ... and failing for at least this long
 
 
 class Gripper:
@@ -52,6 +53,7 @@ class Gripper:
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
         self._fails = 0
+        self._first_fail = 0.0
         self._last_attempt = 0.0
 
     # --- lifecycle --------------------------------------------------------
@@ -189,7 +191,10 @@ class Gripper:
         except BusError as e:
             self.counters["read_errors"] += 1
             self._fails += 1
-            if self._fails >= FAILS_BEFORE_LOST:
+            if self._fails == 1:
+                self._first_fail = time.monotonic()
+            # lost: several failed reads in a row over a while (a loaded host can delay a few replies)
+            if self._fails >= FAILS_BEFORE_LOST and time.monotonic() - self._first_fail >= LOST_AFTER_S:
                 log.error("gripper line lost: %s", e)
                 self.connected, self.error = False, str(e)
                 self.bus.close()

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import logging
 import signal
+import subprocess
 import threading
 from collections import deque
 from collections.abc import Callable
@@ -18,10 +19,11 @@ from types import FrameType
 from typing import Generic, TypeVar
 
 import zenoh
-from pydantic import BaseModel
+from pydantic import BaseModel, ValidationError
 
+from .errors import PayloadError
 from .keys import ENCODING_JSON
-from .limits import MESSAGE_CHARS, ClipFilter, check_payload, error_text
+from .limits import MESSAGE_CHARS, ClipFilter, check_payload, clip, error_text
 from .memory import trim_heap
 from .messages import ErrorReply, ServiceStatus
 
@@ -140,6 +142,34 @@ def query_payload(query: zenoh.Query) -> bytes:
     ``ValueError``) beyond the limit of its key (:func:`~sofia_schemas.limits.payload_limit`)."""
     check_payload(str(query.key_expr), query.payload)
     return query.payload.to_bytes() if query.payload is not None else b""
+
+
+M = TypeVar("M", bound=BaseModel)
+
+
+def stop_child(popen: subprocess.Popen[str], grace_s: float = 5.0) -> None:
+    """Stop a child process a service started (an emulator, a simulator): SIGTERM, then SIGKILL
+    after ``grace_s``."""
+    if popen.poll() is not None:
+        return
+    popen.terminate()
+    try:
+        popen.wait(grace_s)
+    except subprocess.TimeoutExpired:
+        popen.kill()
+        popen.wait(5)
+
+
+def query_message(query: zenoh.Query, model: type[M], what: str) -> M:
+    """The JSON ``model`` carried by ``query``; :class:`PayloadError` naming ``what`` (e.g.
+    "gripper command") when the query has no payload or it is not a valid ``model``."""
+    payload = query_payload(query)
+    if not payload:
+        raise PayloadError(f"{what} query has no payload: send a JSON {model.__name__}")
+    try:
+        return model.model_validate_json(payload)
+    except ValidationError as e:
+        raise PayloadError(f"{what} {clip(payload)} is not a valid {model.__name__}: {e}") from None
 
 
 class StatusEndpoint:

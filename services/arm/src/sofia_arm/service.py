@@ -24,13 +24,12 @@ from typing import Literal
 
 import numpy as np
 import zenoh
-from pydantic import ValidationError
 from sofia_schemas.errors import PayloadError
 from sofia_schemas.keys import ENCODING_CDR_JOINT_STATE, ENCODING_CDR_TRANSFORM, ENCODING_JSON, Keys
 from sofia_schemas.kinematics import rotation_to_quat_xyzw
 from sofia_schemas.messages import ArmCommand, ArmState, FlangePose, GripperState, ServiceStatus, now_ns
 from sofia_schemas.rosmsg import encode_flange_pose, encode_joint_state
-from sofia_schemas.service import StatusEndpoint, StopFlag, query_payload, reply_error, reply_json, run_worker
+from sofia_schemas.service import StatusEndpoint, StopFlag, query_message, reply_error, reply_json, run_worker
 from sofia_schemas.zenoh_config import ZenohOptions, zenoh_config
 
 from .commands import Commands
@@ -55,13 +54,7 @@ class ServiceConfig:
 
 
 def parse_command(query: zenoh.Query) -> ArmCommand:
-    payload = query_payload(query)
-    if not payload:
-        raise PayloadError("arm command query has no payload: send a JSON ArmCommand")
-    try:
-        return ArmCommand.model_validate_json(payload)
-    except ValidationError as e:
-        raise PayloadError(f"arm command {payload[:200]!r} is not a valid ArmCommand: {e}") from None
+    return query_message(query, ArmCommand, "arm command")
 
 
 class StatePublisher:

@@ -17,6 +17,8 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
+from sofia_schemas.service import stop_child
+
 from .errors import SimError
 
 log = logging.getLogger(__name__)
@@ -33,14 +35,7 @@ class SimProcess:
 
     def stop(self) -> None:
         """Terminate (SIGTERM, then SIGKILL after 5 s)."""
-        if self.popen.poll() is not None:
-            return
-        self.popen.terminate()
-        try:
-            self.popen.wait(5)
-        except subprocess.TimeoutExpired:
-            self.popen.kill()
-            self.popen.wait(5)
+        stop_child(self.popen)
 
     def kill(self) -> None:
         """Kill at once, as a robot losing power or its network."""

@@ -23,11 +23,18 @@ from pathlib import Path
 from typing import Literal
 
 import zenoh
-from pydantic import ValidationError
 from sofia_schemas.errors import PayloadError
 from sofia_schemas.keys import ENCODING_JSON, Keys
 from sofia_schemas.messages import GripperCommand, GripperState, ServiceStatus, now_ns
-from sofia_schemas.service import StatusEndpoint, StopFlag, query_payload, reply_error, reply_json, run_worker
+from sofia_schemas.service import (
+    StatusEndpoint,
+    StopFlag,
+    query_message,
+    reply_error,
+    reply_json,
+    run_worker,
+    stop_child,
+)
 from sofia_schemas.zenoh_config import ZenohOptions, zenoh_config
 
 from .config import GripperConfig, save_config
@@ -48,13 +55,7 @@ class ServiceConfig:
 
 
 def parse_command(query: zenoh.Query) -> GripperCommand:
-    payload = query_payload(query)
-    if not payload:
-        raise PayloadError("gripper command query has no payload: send a JSON GripperCommand")
-    try:
-        return GripperCommand.model_validate_json(payload)
-    except ValidationError as e:
-        raise PayloadError(f"gripper command {payload[:200]!r} is not a valid GripperCommand: {e}") from e
+    return query_message(query, GripperCommand, "gripper command")
 
 
 class GripperService:
@@ -120,12 +121,7 @@ class EmulatorProcess:
     path: str
 
     def stop(self) -> None:
-        self.popen.terminate()
-        try:
-            self.popen.wait(5)
-        except subprocess.TimeoutExpired:
-            self.popen.kill()
-            self.popen.wait(5)
+        stop_child(self.popen)
 
 
 def start_emulator(gconf: GripperConfig, object_width_mm: float | None, workdir: Path) -> EmulatorProcess:

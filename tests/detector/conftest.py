@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -47,3 +48,15 @@ def scenes(board: Board) -> dict[str, Rendered]:
         scene = make_scene(board, kind, rng, shape=shape, fld=fld)  # type: ignore[arg-type]
         out[name] = Rendered(name, render_scene(scene, rng))
     return out
+
+
+def write_pcl_ascii(path: Path, points: np.ndarray) -> None:
+    """A PCD file as PCL's ``pcl::io::savePCDFileASCII`` writes it (organized, NaN kept)."""
+    h, w = points.shape[:2]
+    head = (
+        "# .PCD v0.7 - Point Cloud Data file format\nVERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\n"
+        f"COUNT 1 1 1\nWIDTH {w}\nHEIGHT {h}\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS {h * w}\nDATA ascii\n"
+    )
+    with path.open("w") as f:
+        f.write(head)
+        np.savetxt(f, points.reshape(-1, 3), fmt="%.6f")

@@ -13,6 +13,8 @@ import pytest
 from sofia_replay import read_truth
 from sofia_replay.synth import DEFAULT_T_FLANGE_CAM, write_scene_set
 
+from .conftest import write_pcl_ascii
+
 SOFIA = str(Path(sys.executable).with_name("sofia"))
 
 
@@ -27,18 +29,6 @@ def json_records(out: str) -> list[dict]:  # type: ignore[type-arg]
 def _finite(points: np.ndarray) -> np.ndarray:
     p = points.reshape(-1, 3)
     return p[np.isfinite(p).all(axis=1)].astype(np.float64)
-
-
-def write_pcl_ascii(path: Path, points: np.ndarray) -> None:
-    """A PCD file as PCL's ``pcl::io::savePCDFileASCII`` writes it (organized, NaN kept)."""
-    h, w = points.shape[:2]
-    head = (
-        "# .PCD v0.7 - Point Cloud Data file format\nVERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\n"
-        f"COUNT 1 1 1\nWIDTH {w}\nHEIGHT {h}\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS {h * w}\nDATA ascii\n"
-    )
-    with path.open("w") as f:
-        f.write(head)
-        np.savetxt(f, points.reshape(-1, 3), fmt="%.6f")
 
 
 @pytest.fixture(scope="module")

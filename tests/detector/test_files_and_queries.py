@@ -15,18 +15,9 @@ from sofia_detector.selection import BadSelection, select, split_selection
 from sofia_schemas import Board
 from sofia_schemas.messages import DetectedObject, Detection
 
+from .conftest import write_pcl_ascii
+
 SOFIA = str(Path(sys.executable).with_name("sofia"))
-
-
-def _pcl_ascii(path: Path, points: np.ndarray) -> None:
-    h, w = points.shape[:2]
-    head = (
-        "# .PCD v0.7 - Point Cloud Data file format\nVERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\n"
-        f"COUNT 1 1 1\nWIDTH {w}\nHEIGHT {h}\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS {h * w}\nDATA ascii\n"
-    )
-    with path.open("w") as f:
-        f.write(head)
-        np.savetxt(f, points.reshape(-1, 3), fmt="%.6f")
 
 
 def test_pcd_header_grid() -> None:
@@ -36,7 +27,7 @@ def test_pcd_header_grid() -> None:
 
 def test_organized_pcd_is_read_organized_and_matches_npy(tmp_path: Path, scenes, board: Board) -> None:  # type: ignore[no-untyped-def]
     pts = scenes["cylinder"].points_base
-    _pcl_ascii(tmp_path / "c.pcd", pts)
+    write_pcl_ascii(tmp_path / "c.pcd", pts)
     np.save(tmp_path / "c.npy", pts)
     (pcd,) = iter_file_clouds(tmp_path / "c.pcd", board.frame_id)
     (npy,) = iter_file_clouds(tmp_path / "c.npy", board.frame_id)

@@ -207,6 +207,12 @@ def test_burst_is_solved_once_and_queries_are_answered_during_a_blob_flood(
     try:  # 300 queries in flight while blobs fill the event queue: each gets a reply
         pending = [session.get(keys.calibrator_op("samples"), timeout=30) for _ in range(300)]
         replies = [list(p) for p in pending]
+        deadline = time.monotonic() + 20.0  # flood on until the event queue has overflowed
+        while (
+            time.monotonic() < deadline
+            and not query(session, keys.status("calibrator"))[1]["counters"]["dropped_blobs"]
+        ):
+            time.sleep(0.2)
     finally:
         flooding.set()
         flooder.join(10)

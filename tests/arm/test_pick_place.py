@@ -55,18 +55,20 @@ def test_pick_and_place_in_the_simulated_cell(
     transform.write_text(json.dumps({"matrix": truth["T_flange_cam"]}))
     procs = [
         sofia_proc("arm", "serve", "--sim", "--max-speed", "1.0"),
-        sofia_proc("camera", "serve", "--sim", "--sim-scene", "board"),
+        # 6 frames a second: the renderer leaves CPU to franky-sim, whose clock slows on a loaded host
+        sofia_proc("camera", "serve", "--sim", "--sim-scene", "board", "--fps", "6"),
         sofia_proc("detector", "serve", "--transform", str(transform)),
         sofia_proc("gripper", "serve", "--emulate", "--object-width", f"{width_mm:.1f}"),
     ]
     procs[0].wait_for_log("connected to the robot", 120)
     keys = Keys(robot_id)
     place = (0.45, -0.25, 0.25)
-    cmd = ArmCommand(command="pick_place", place_position=place, speed=1.0, timeout_s=240)
+    # about 60 s of the simulator's clock, which runs at 0.3-0.9 x wall time depending on the host's load
+    cmd = ArmCommand(command="pick_place", place_position=place, speed=1.0, timeout_s=480)
     with zenoh.open(zenoh_config()) as session:
-        res = ask(session, keys.arm_command, ArmResult, cmd.model_dump_json(), timeout=300)
+        res = ask(session, keys.arm_command, ArmResult, cmd.model_dump_json(), timeout=540)
     phases = {p.name: p for p in res.phases}
-    assert res.ok, (res.reason, [(p.name, p.status, p.reason) for p in res.phases])
+    assert res.ok, (res.reason, [(p.name, p.status, p.reason) for p in res.phases], procs[0].log()[-3000:])
     assert list(phases) == ["target", "open", "pregrasp", "descend", "grasp", "lift", "move", "lower", "release",
                             "retreat"]  # fmt: skip
     assert "grasped True" in phases["grasp"].reason

@@ -1,10 +1,14 @@
 """Find the dark calibration blob on the white sheet in an organized RGB-D cloud.
 
-The blob's 3D centre is where the ray through the blob's pixel centroid meets the plane fitted to
-the sheet around it, so it is robust to missing or noisy depth on the blob itself. Specular glare
-(saturated pixels, bright depth holes) touching the blob's rim would pull the centroid away: the
-centre then comes from an ellipse fitted to the rim that is left, and the confidence drops by the
-fraction of the rim the glare touches.
+The blob's 3D centre is the area centroid of the blob's pixels cast onto the plane fitted to the
+sheet around it, so it is robust to missing or noisy depth on the blob itself. Each pixel is cast
+along its ray and weighted by the area it covers on the plane, which grows as 1 / |n . r|^3 for a
+ray r = (x/z, y/z, 1) and the plane's unit normal n: the centroid is the disc's centre in any view,
+where the plain pixel centroid would be pulled towards the near side of a tilted disc (the image
+of a circle's centre is not the centre of its image). Specular glare (saturated pixels, bright
+depth holes) touching the blob's rim would pull the centroid away: the centre then comes from an
+ellipse fitted to the rim that is left, and the confidence drops by the fraction of the rim the
+glare touches.
 """
 
 from __future__ import annotations
@@ -98,6 +102,23 @@ def _ellipse_centre(uv: np.ndarray) -> tuple[float, float] | None:
     return float(x0 + c[0]), float(y0 + c[1])
 
 
+def _plane_centroid(
+    uu: np.ndarray,
+    vv: np.ndarray,
+    intrinsics: tuple[float, float, float, float],
+    normal: np.ndarray,
+    d: float,
+) -> np.ndarray:
+    """Area centroid (3,) camera frame, metres, of pixels (u, v) (m,) cast onto the plane n.p = d
+    (unit normal ``normal`` (3,), camera frame): each ray r = ((u - cx)/fx, (v - cy)/fy, 1) meets it
+    at r d / (n . r), covering an area proportional to 1 / |n . r|^3 (see the module docstring)."""
+    fx, cx, fy, cy = intrinsics
+    rays = np.stack([(uu - cx) / fx, (vv - cy) / fy, np.ones(len(uu))], axis=1)
+    nr = rays @ normal
+    area = 1.0 / np.abs(nr) ** 3
+    return np.asarray((area * d / nr) @ rays / area.sum())
+
+
 def find_blob(points_cam: np.ndarray, rgb: np.ndarray) -> Blob:
     """The blob in an organized cloud.
 
@@ -140,22 +161,25 @@ def find_blob(points_cam: np.ndarray, rgb: np.ndarray) -> Blob:
     vv, uu = np.nonzero(mask)
     u_c, v_c = float(uu.mean()), float(vv.mean())
     clean_rim, glare = _glare(mask, grey, points_cam)
+    outline_centre = False
     if glare > 0.0:  # glare eats part of the blob: its centre from the outline that is left
         centre = _ellipse_centre(clean_rim) if len(clean_rim) >= MIN_CLEAN_RIM else None
         if centre is not None and np.hypot(centre[0] - u_c, centre[1] - v_c) < 0.5 * np.sqrt(size):
-            u_c, v_c = centre
+            (u_c, v_c), outline_centre = centre, True
     ring = ndimage.binary_dilation(mask, iterations=RING_PX) & ~mask & bright
     on_plane = (mask | ring) & np.isfinite(points_cam).all(axis=2)
     n_valid = int((mask & on_plane).sum())
     if on_plane.sum() < 20:
         raise BlobNoDepth(size, n_valid)
     fx, cx, fy, cy = _rays(points_cam)
-    ray = np.array([(u_c - cx) / fx, (v_c - cy) / fy, 1.0])
     normal, d, rms = _plane(points_cam[on_plane])
-    denom = float(normal @ ray)
-    if abs(denom) < 1e-3:
+    ray = np.array([(u_c - cx) / fx, (v_c - cy) / fy, 1.0])
+    if abs(float(normal @ ray)) < 1e-3:
         raise BlobNotFound(f"the sheet is seen edge-on (normal {np.round(normal, 3).tolist()})")
-    p_cam = ray * (d / denom)
+    if outline_centre:
+        p_cam = ray * (d / float(normal @ ray))
+    else:
+        p_cam = _plane_centroid(uu, vv, (fx, cx, fy, cy), normal, d)
     contrast = float(grey[ring].mean() - grey[mask].mean()) if ring.any() else 0.0
     fill = size / max(np.pi * 0.25 * np.ptp(uu + 1) * np.ptp(vv + 1), 1.0)  # 1 for a full ellipse
     confidence = float(

@@ -37,15 +37,16 @@ class BoardFit:
 def _outline_points(m: np.ndarray, band: np.ndarray, half: np.ndarray) -> np.ndarray:
     """(k, 2) plane-frame points on the outline of the largest connected patch of ``band``.
 
-    Organized ``m`` (3, h, w): connectivity on every second cell of the pixel grid. Unorganized
-    (3, n): on an occupancy grid of :data:`OUTLINE_CELL` cells over ``[-half, half]``.
+    Organized ``m`` (3, h, w): connectivity on the pixel grid (the caller passes every second
+    cell of the coarse grid). Unorganized (3, n): on an occupancy grid of :data:`OUTLINE_CELL`
+    cells over ``[-half, half]``.
     """
     if m.ndim == 3:
-        comp = largest_component(band[::2, ::2])
+        comp = largest_component(band)
         if not comp.any():
             return np.empty((0, 2))
         r, c = grid_boundary(comp)
-        return np.stack([m[0, 2 * r, 2 * c], m[1, 2 * r, 2 * c]], axis=1)
+        return np.stack([m[0, r, c], m[1, r, c]], axis=1)
     xy = m[:2, band].T
     shape = tuple(np.ceil(2 * half / OUTLINE_CELL).astype(int) + 1)
     idx = np.floor((xy + half) / OUTLINE_CELL).astype(np.intp)
@@ -83,9 +84,12 @@ def fit_board(coarse_base: np.ndarray, board: Board, params: DetectorParams) -> 
     T_base_plane = board.T_base_board @ T_cp
     m = change_frame(q, T_cp)
     half = np.array([ex / 2, ey / 2]) + params.outline_margin
+    sub = m[:, ::2, ::2] if m.ndim == 3 else m  # organized: every second cell is plenty
     with np.errstate(invalid="ignore"):
-        band = (np.abs(m[2]) < params.outline_band) & (np.abs(m[0]) < half[0]) & (np.abs(m[1]) < half[1])
-    outline_xy = _outline_points(m, band, half)
+        band = (
+            (np.abs(sub[2]) < params.outline_band) & (np.abs(sub[0]) < half[0]) & (np.abs(sub[1]) < half[1])
+        )
+    outline_xy = _outline_points(sub, band, half)
     outline = None
     T_plane_board = np.eye(4)
     if outline_xy.shape[0] >= 8:

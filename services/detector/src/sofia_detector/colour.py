@@ -8,10 +8,13 @@ palette colour in shading-invariant features (chromaticity and log brightness).
 
 from __future__ import annotations
 
+from functools import lru_cache
+
 import numpy as np
 from sofia_schemas import Board
 
 from .depth_clean import chroma, colour_distance
+from .pixels import median, where
 
 DEFAULT_PALETTE: tuple[tuple[str, tuple[int, int, int]], ...] = (
     ("red", (200, 30, 35)),
@@ -38,22 +41,29 @@ def board_white(
     Pixels within ``band`` of the plane and in the middle 60 % of a white field count.
     """
     with np.errstate(invalid="ignore"):
-        on_top = np.abs(m_plane[2]) < band
-    r, c = np.nonzero(on_top[::3, ::3])
+        on_top = np.abs(m_plane[2, ::3, ::3]) < band
+    r, c = where(on_top)
     r, c = 3 * r, 3 * c
     if r.size == 0:
         return None
     xy = (T_board_plane[:2, :2] @ m_plane[:2, r, c]).T + T_board_plane[:2, 3]
     rc = board.field_of_board_xy(xy)
-    size = np.array(board.field_size)
+    centres, allowed = _fields(board)
     inside = rc[:, 0] >= 0
-    centres = board.field_centers_board()[np.clip(rc[:, 0], 0, None), np.clip(rc[:, 1], 0, None)]
-    middle = np.all(np.abs(xy - centres) < 0.3 * size, axis=1)
-    allowed = np.array([[board.is_allowed(i, j) for j in range(board.cols)] for i in range(board.rows)])
-    white = inside & middle & ~allowed[np.clip(rc[:, 0], 0, None), np.clip(rc[:, 1], 0, None)]
+    i, j = np.clip(rc[:, 0], 0, None), np.clip(rc[:, 1], 0, None)
+    middle = np.all(np.abs(xy - centres[i, j]) < 0.3 * np.array(board.field_size), axis=1)
+    white = inside & middle & ~allowed[i, j]
     if np.count_nonzero(white) < MIN_WHITE_PIXELS:
         return None
-    return np.median(rgb_coarse[r[white], c[white]].astype(np.float64), axis=0)  # type: ignore[no-any-return]
+    return median(rgb_coarse[r[white], c[white]].astype(np.float64))
+
+
+@lru_cache(maxsize=16)
+def _fields(board: Board) -> tuple[np.ndarray, np.ndarray]:
+    """The board's field centres (rows, cols, 2) (board frame, metres) and red fields (rows, cols)
+    bool, once per board geometry."""
+    allowed = np.array([[board.is_allowed(i, j) for j in range(board.cols)] for i in range(board.rows)])
+    return board.field_centers_board(), allowed
 
 
 def name_colour(

@@ -12,8 +12,12 @@ from __future__ import annotations
 import numpy as np
 from scipy import ndimage
 
+from .pixels import grow, median, where
+
 EIGHT = np.ones((3, 3), dtype=bool)
 SHIFTS = ((0, 1), (1, 0), (1, 1), (1, -1))
+NEIGHBOURS = ((-1, -1), (-1, 0), (-1, 1), (0, -1), (0, 1), (1, -1), (1, 0), (1, 1))
+STEPS = np.array(NEIGHBOURS, dtype=np.intp)  # (8, 2) row and column steps to the neighbours
 
 
 def consistent(c: np.ndarray, delta: float, min_neighbours: int = 2) -> np.ndarray:
@@ -42,25 +46,40 @@ def consistent(c: np.ndarray, delta: float, min_neighbours: int = 2) -> np.ndarr
     return count >= min_neighbours
 
 
+def _padded(a: np.ndarray, fill: float | int) -> np.ndarray:
+    """``a`` (..., h, w) with a one-pixel frame of ``fill`` around its last two axes, flattened
+    over them: (..., (h + 2) * (w + 2))."""
+    *lead, h, w = a.shape
+    out = np.full((*lead, h + 2, w + 2), fill, dtype=a.dtype)
+    out[..., 1:-1, 1:-1] = a
+    return out.reshape(*lead, -1)
+
+
+def _neighbours(r: np.ndarray, q: np.ndarray, w: int) -> tuple[np.ndarray, np.ndarray]:
+    """Flat indices into a :func:`_padded` image (unpadded width ``w``) of the pixels (r, q) (n,):
+    (n,) the pixels themselves and (8, n) their 8 neighbours."""
+    here = (r + 1) * (w + 2) + (q + 1)
+    offsets = np.array([dr * (w + 2) + dq for dr, dq in NEIGHBOURS], dtype=np.intp)
+    return here, here[None, :] + offsets[:, None]
+
+
 def consistent_at(c: np.ndarray, mask: np.ndarray, delta: float, min_neighbours: int = 2) -> np.ndarray:
     """``mask`` (h, w) bool keeping only its pixels that pass :func:`consistent` (computed at those
     pixels only: cheap for sparse masks)."""
-    r, q = np.nonzero(mask)
+    r, q = where(mask)
     if r.size == 0:
         return mask
-    _, h, w = c.shape
-    count = np.zeros(r.size, dtype=np.int8)
-    p = c[:, r, q]
-    d2 = np.float32(delta * delta)
-    for dr, dq in ((-1, -1), (-1, 0), (-1, 1), (0, -1), (0, 1), (1, -1), (1, 0), (1, 1)):
-        rr, qq = r + dr, q + dq
-        inside = (rr >= 0) & (rr < h) & (qq >= 0) & (qq < w)
-        diff = c[:, np.clip(rr, 0, h - 1), np.clip(qq, 0, w - 1)] - p
-        with np.errstate(invalid="ignore"):
-            close = np.einsum("kn,kn->n", diff, diff) < d2
-        count += close & inside
+    h, w = mask.shape
+    rr, qq = r + STEPS[:, :1], q + STEPS[:, 1:]  # (8, n) the neighbours
+    inside = (rr >= 0) & (rr < h) & (qq >= 0) & (qq < w)
+    around = np.minimum(np.maximum(rr, 0), h - 1) * w + np.minimum(np.maximum(qq, 0), w - 1)
+    flat = c.reshape(3, -1)
+    diff = flat[:, around] - flat[:, None, r * w + q]  # (3, 8, n)
+    with np.errstate(invalid="ignore"):
+        close = np.einsum("kmn,kmn->mn", diff, diff) < np.float32(delta * delta)
+    close &= inside
     out = np.zeros_like(mask)
-    keep = count >= min_neighbours
+    keep = np.count_nonzero(close, axis=0) >= min_neighbours
     out[r[keep], q[keep]] = True
     return out
 
@@ -73,7 +92,7 @@ def pixel_spacing(m: np.ndarray, stride: int) -> float:
     step = m[:, ::8, 1:] - m[:, ::8, :-1]
     d = np.sqrt(np.einsum("kij,kij->ij", step, step)).ravel()
     d = d[np.isfinite(d)]
-    return float(np.median(d)) / stride if d.size else 0.0012
+    return float(median(d)) / stride if d.size else 0.0012
 
 
 def chroma(rgb: np.ndarray) -> np.ndarray:
@@ -102,19 +121,28 @@ def bridge(
     labels, n = ndimage.label(seeds, structure=EIGHT)
     if rgb is None or n < 2 or not invalid.any():
         return labels, n
-    r, c = np.nonzero(labels)
+    r, c = where(labels)
     lab = labels[r, c]
     feat = chroma(rgb[r, c])
     counts = np.bincount(lab, minlength=n + 1).astype(np.float32)
     sums = np.stack([np.bincount(lab, weights=feat[:, k], minlength=n + 1) for k in range(4)], axis=1)
     mean = sums / np.maximum(counts, 1)[:, None]
-    grown = labels.copy()
+    r, c = where(invalid & grow(seeds, 2 * steps + 1))  # the missing pixels growth can reach
+    if r.size == 0:
+        return labels, n
+    colour = chroma(rgb[r, c])
+    grown = _padded(labels, 0)  # flat, grown in place
+    here, around = _neighbours(r, c, labels.shape[1])
+    todo = np.ones(r.size, dtype=bool)
     for _ in range(steps):
-        dil = ndimage.maximum_filter(grown, size=3)
-        cand = invalid & (grown == 0) & (dil > 0)
-        if not cand.any():
+        lab = grown[around].max(axis=0)  # the largest label around each pixel
+        ok = todo & (lab > 0)
+        if not ok.any():
             break
-        r, c = np.nonzero(cand)
-        ok = colour_distance(chroma(rgb[r, c]), mean[dil[r, c]]) < tol
-        grown[r[ok], c[ok]] = dil[r[ok], c[ok]]
-    return ndimage.label(grown > 0, structure=EIGHT)
+        ok[ok] = colour_distance(colour[ok], mean[lab[ok]]) < tol
+        grown[here[ok]] = lab[ok]
+        todo &= ~ok
+    if todo.all():  # nothing joined
+        return labels, n
+    inner = grown.reshape(labels.shape[0] + 2, -1)[1:-1, 1:-1]
+    return ndimage.label(inner > 0, structure=EIGHT)

@@ -16,6 +16,7 @@ from .depth_clean import pixel_spacing
 from .errors import BadCloud
 from .footprint import ObjectEstimate, estimate_object
 from .params import DetectorParams
+from .pixels import median
 from .plane import coords
 from .segment import Levels, ObjectPoints, organized_objects, unorganized_objects
 from .visibility import InView, in_view
@@ -119,7 +120,7 @@ def _colour(
     sel = np.flatnonzero(upper) if np.count_nonzero(upper) >= 3 else np.arange(obj.rows.size)
     sel = sel[:: max(1, sel.size // 500)]
     pix = obj.rgb[obj.rows[sel], obj.cols[sel]]
-    return name_colour(np.median(pix.reshape(-1, 3).astype(np.float64), axis=0), white, params.palette)
+    return name_colour(median(pix.reshape(-1, 3).astype(np.float64)), white, params.palette)
 
 
 def detect(
@@ -167,12 +168,9 @@ def detect(
     found = _objects(cloud, colours, fit, board, params, lv)
     t2 = time.perf_counter()
     white = None
-    if colours is not None and organized:
-        T_board_plane = invert(fit.T_base_board) @ fit.T_base_plane
-        s = params.stride
-        white = board_white(fit.m_coarse, colours[::s, ::s], T_board_plane, board, params.outline_band)
+    need_white = colours is not None and organized  # measured once, for the first object named
     left_band = 0
-    if organized:
+    if organized and found:
         seen_cols = np.isfinite(fit.m_coarse[2]).mean(axis=0) > 0.2  # the invalid band ends here
         left_band = int(np.argmax(seen_cols)) * params.stride if seen_cols.any() else 0
     objects = []
@@ -180,13 +178,20 @@ def detect(
         if obj.b.shape[1] < params.min_points:
             continue
         est = estimate_object(obj, fit.plane.rms, params.curvature)
+        if est.size[1] < params.min_width or est.height < params.min_object_height:
+            continue  # a sliver of mixed pixels, or below the height floor
+        if board.field_of_board_xy(est.center_xy[None, :])[0, 0] < 0:
+            continue  # not on the field grid
         view = in_view(obj, est.height, params.colour_tol, left_band)
-        if view.off_board > OFF_BOARD or est.size[1] < params.min_width:
-            continue  # beside the board (on the table), or a sliver of mixed pixels
+        if view.off_board > OFF_BOARD:
+            continue  # beside the board (on the table)
+        if need_white and colours is not None:
+            T_board_plane = invert(fit.T_base_board) @ fit.T_base_plane
+            s = params.stride
+            white = board_white(fit.m_coarse, colours[::s, ::s], T_board_plane, board, params.outline_band)
+            need_white = False
         colour = _colour(obj, est, white, params)
-        msg = _to_message(est, board, fit.T_base_board, fit.plane.rms, view, colour)
-        if est.height >= params.min_object_height and msg.field is not None:  # on the field grid
-            objects.append(msg)
+        objects.append(_to_message(est, board, fit.T_base_board, fit.plane.rms, view, colour))
     objects.sort(key=lambda o: (not o.allowed, -o.n_points))
     t3 = time.perf_counter()
     timings.update(segment_ms=(t2 - t1) * 1e3, objects_ms=(t3 - t2) * 1e3, total_ms=(t3 - t0) * 1e3)

@@ -15,6 +15,7 @@ import numpy as np
 from scipy import ndimage
 
 from .outline import Rect, min_area_rect
+from .pixels import median
 from .segment import ObjectPoints
 
 FIT_POINTS = 3000  # points used by the fits (every k-th of a large object)
@@ -150,7 +151,7 @@ def estimate_object(obj: ObjectPoints, noise: float, curvature: float) -> Object
             height = float(coef[0] - (coef[1] ** 2 + coef[2] ** 2) / (4 * coef[3]))
             size = 2 * np.maximum(apex_uv - rect.lo, rect.hi - apex_uv)
     if not curved:
-        height = float(np.median(top[2])) if top.shape[1] else h_hi
+        height = float(median(top[2])) if top.shape[1] else h_hi
         face = _solid(obj, b_all[2] > height - max(3 * noise, 0.004))
         if np.count_nonzero(face) >= 3:
             rect = min_area_rect(obj.boundary_xy(face))

@@ -69,10 +69,10 @@ def grid_boundary(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     h, w = mask.shape
     rows = np.flatnonzero(mask.any(axis=1))
     cols = np.flatnonzero(mask.any(axis=0))
-    first_c = np.argmax(mask[rows], axis=1)
-    last_c = w - 1 - np.argmax(mask[rows, ::-1], axis=1)
-    first_r = np.argmax(mask[:, cols], axis=0)
-    last_r = h - 1 - np.argmax(mask[::-1, cols], axis=0)
+    first_c = np.argmax(mask, axis=1)[rows]
+    last_c = w - 1 - np.argmax(mask[:, ::-1], axis=1)[rows]
+    first_r = np.argmax(mask, axis=0)[cols]
+    last_r = h - 1 - np.argmax(mask[::-1], axis=0)[cols]
     return np.concatenate([rows, rows, first_r, last_r]), np.concatenate([first_c, last_c, cols, cols])
 
 
@@ -94,8 +94,9 @@ def rect_extents(xy: np.ndarray, yaws: np.ndarray) -> tuple[np.ndarray, np.ndarr
     the projections on ``(cos, sin)`` and ``(-sin, cos)`` of each yaw.
     """
     c, s = np.cos(yaws), np.sin(yaws)
-    u = np.outer(c, xy[:, 0]) + np.outer(s, xy[:, 1])
-    v = np.outer(-s, xy[:, 0]) + np.outer(c, xy[:, 1])
+    x, y = xy[None, :, 0], xy[None, :, 1]
+    u = c[:, None] * x + s[:, None] * y
+    v = -s[:, None] * x + c[:, None] * y
     lo = np.stack([u.min(axis=1), v.min(axis=1)], axis=1)
     hi = np.stack([u.max(axis=1), v.max(axis=1)], axis=1)
     return lo, hi
@@ -108,7 +109,7 @@ def min_area_rect(xy: np.ndarray, max_yaw: float | None = None) -> Rect:
     considered (0 when no hull edge is in range). The returned yaw is in ``[-pi/4, pi/4)``.
     """
     v = hull(xy)
-    edges = np.roll(v, -1, axis=0) - v
+    edges = np.concatenate([v[1:], v[:1]]) - v  # vertex i+1 - vertex i, cyclic
     yaws = (np.arctan2(edges[:, 1], edges[:, 0]) + np.pi / 4) % QUARTER - np.pi / 4
     if max_yaw is not None:
         yaws = yaws[np.abs(yaws) <= max_yaw]

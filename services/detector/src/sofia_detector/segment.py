@@ -16,6 +16,7 @@ from scipy import ndimage
 from .depth_clean import EIGHT, bridge, consistent, consistent_at
 from .outline import grid_boundary, hull
 from .params import DetectorParams
+from .pixels import where
 from .plane import change_frame, coords
 
 
@@ -108,7 +109,7 @@ def organized_objects(
         if sl is None:
             continue
         comp = (labels[sl] == i) & seeds[sl]
-        sr, sc = np.nonzero(comp)
+        sr, sc = where(comp)
         if sr.size < params.min_seed_pixels:
             continue
         xy_plane = m_coarse[:2][:, sl[0], sl[1]][:, comp].mean(axis=1)
@@ -132,7 +133,7 @@ def organized_objects(
         pieces = np.flatnonzero(counts >= max(2.0, 0.1 * counts.max()))
         obj = np.isin(wl, pieces) if pieces.size > 1 else wl == pieces[0]
         claimed.append((r0, c0, obj))
-        rows_obj, cols_obj = np.nonzero(obj)
+        rows_obj, cols_obj = where(obj)
         yield ObjectPoints(
             b[:, rows_obj, cols_obj], rows_obj, cols_obj, obj.shape, (r0, c0), (H, W), b,
             None if rgb is None else rgb[r0:r1, c0:c1],

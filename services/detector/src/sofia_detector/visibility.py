@@ -11,19 +11,14 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import ndimage
 
 from .depth_clean import chroma, colour_distance
+from .pixels import grow, median, shrink
 from .segment import ObjectPoints
 
 OCCLUDER_ABOVE = 0.015  # a neighbour this much above the object's top is in front of it, metres
-TRUNCATED = 0.04
+TRUNCATED = 0.04  # share of the silhouette out of view above which an object is truncated
 BELOW_BOARD = 0.01  # neighbours this far below the board surface: the object stands off the board
-
-
-def grow(mask: np.ndarray, size: int) -> np.ndarray:
-    """(h, w) bool ``mask`` dilated by a ``size`` x ``size`` square (separable, fast)."""
-    return ndimage.maximum_filter(mask.view(np.uint8), size=size).view(bool)  # type: ignore[no-any-return]  # share of the silhouette out of view above which an object is truncated
 
 
 @dataclass(frozen=True)
@@ -50,16 +45,20 @@ def in_view(obj: ObjectPoints, top: float, tol: float, left_band: int = 0) -> In
     if obj.rows is None or obj.cols is None or obj.window is None:
         return InView(1.0, (), 0.0, 0.0, 0.0)
     (r0, c0), (H, W) = obj.origin, obj.image_shape
-    rows, cols = obj.rows + r0, obj.cols + c0
-    border = (rows == 0) | (rows == H - 1) | (cols <= left_band) | (cols == W - 1)
-    edge = 2 * int(np.count_nonzero(border))
-    crop = (
-        slice(max(int(obj.rows.min()) - 4, 0), int(obj.rows.max()) + 5),
-        slice(max(int(obj.cols.min()) - 4, 0), int(obj.cols.max()) + 5),
+    lo_r, hi_r, lo_c, hi_c = (
+        int(v) for v in (obj.rows.min(), obj.rows.max(), obj.cols.min(), obj.cols.max())
     )
-    mask = np.zeros(obj.shape, dtype=bool)
-    mask[obj.rows, obj.cols] = True
-    mask = mask[crop]
+    edge = 0
+    if lo_r + r0 == 0 or hi_r + r0 == H - 1 or lo_c + c0 <= left_band or hi_c + c0 == W - 1:
+        rows, cols = obj.rows + r0, obj.cols + c0
+        border = (rows == 0) | (rows == H - 1) | (cols <= left_band) | (cols == W - 1)
+        edge = 2 * int(np.count_nonzero(border))
+    crop = (
+        slice(max(lo_r - 4, 0), min(hi_r + 5, obj.shape[0])),
+        slice(max(lo_c - 4, 0), min(hi_c + 5, obj.shape[1])),
+    )
+    mask = np.zeros((crop[0].stop - crop[0].start, crop[1].stop - crop[1].start), dtype=bool)
+    mask[obj.rows - crop[0].start, obj.cols - crop[1].start] = True
     h = obj.window[2][crop]
     ring = grow(mask, 5) & ~mask
     with np.errstate(invalid="ignore"):
@@ -70,14 +69,14 @@ def in_view(obj: ObjectPoints, top: float, tol: float, left_band: int = 0) -> In
     near = np.isnan(h) & grow(mask, 7)
     if obj.rgb is not None and near.any():
         rgb = obj.rgb[crop]
-        own = chroma(np.median(obj.rgb[obj.rows[::4], obj.cols[::4]].astype(np.float64), axis=0))
+        own = chroma(median(obj.rgb[obj.rows[::4], obj.cols[::4]].astype(np.float64)))
         same = np.zeros_like(mask)
         same[near] = colour_distance(chroma(rgb[near]), own) < tol
         shadow = np.zeros_like(mask)
         shadow[:, :-1] |= mask[:, 1:]
         shadow[:, :-2] |= mask[:, 2:]
-        blobs = ndimage.minimum_filter(same.view(np.uint8), size=3)  # not the grazing slivers along rims
-        holes = int(np.count_nonzero(ring & grow(blobs.view(bool), 3) & ~shadow))
+        blobs = shrink(same, 3)  # not the grazing slivers along rims
+        holes = int(np.count_nonzero(ring & grow(blobs, 3) & ~shadow))
         n_same = int(np.count_nonzero(same))
         inner_holes = n_same / (n_same + obj.rows.size)
     n = int(np.count_nonzero(ring)) + edge
@@ -88,7 +87,7 @@ def in_view(obj: ObjectPoints, top: float, tol: float, left_band: int = 0) -> In
         if k > 0.02 * n
     )
     return InView(
-        float(np.clip(1.0 - 1.2 * lost, 0.0, 1.0)),
+        min(max(1.0 - 1.2 * lost, 0.0), 1.0),
         reasons if lost > TRUNCATED else (),
         lost,
         inner_holes,

@@ -1,0 +1,50 @@
+"""Small operations on pixel grids and samples, without the per-call overhead of their general forms.
+
+``scipy.ndimage`` filters and ``np.median`` cost tens of microseconds per call whatever the size of
+their input; the detector calls them on small windows many times per cloud. These give the same
+results (square dilation and erosion ignore pixels outside the image, like the filters' default
+``reflect`` border) with a few slice operations.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def where(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(rows, cols) (n,) intp of the True (non-zero) pixels of ``mask`` (h, w), in row-major order,
+    as ``np.nonzero(mask)`` (several times faster on 2-D arrays)."""
+    return divmod(np.flatnonzero(mask), mask.shape[1])  # type: ignore[no-any-return]
+
+
+def grow(mask: np.ndarray, size: int) -> np.ndarray:
+    """(h, w) bool ``mask`` dilated by a ``size`` x ``size`` square (``size`` odd)."""
+    k = size // 2
+    rows = mask.copy()
+    for d in range(1, k + 1):
+        rows[d:] |= mask[:-d]
+        rows[:-d] |= mask[d:]
+    out = rows.copy()
+    for d in range(1, k + 1):
+        out[:, d:] |= rows[:, :-d]
+        out[:, :-d] |= rows[:, d:]
+    return out
+
+
+def shrink(mask: np.ndarray, size: int) -> np.ndarray:
+    """(h, w) bool ``mask`` eroded by a ``size`` x ``size`` square (``size`` odd); pixels outside
+    the image do not erode it."""
+    return ~grow(~mask, size)
+
+
+def median(x: np.ndarray) -> np.ndarray:
+    """Median along the first axis of x (n, ...) with n >= 1, as ``np.median(x, axis=0)`` (float
+    input keeps its dtype, integers give float64)."""
+    if x.dtype.kind != "f":
+        x = x.astype(np.float64)
+    n = x.shape[0]
+    h = n // 2
+    if n % 2:
+        return np.partition(x, h, axis=0)[h]  # type: ignore[no-any-return]
+    part = np.partition(x, (h - 1, h), axis=0)
+    return (part[h - 1] + part[h]) / 2  # type: ignore[no-any-return]

@@ -7,7 +7,14 @@ up has p99 below it. Also printed: frames lost (clouds the subscriber saw withou
 the detector's own dropped count, CPU per process (from /proc), and the detector's memory after a
 10 s warm-up and at the end (flat = no leak).
 
+Baselines measured in the same run: a bare Zenoh put -> subscriber of the same 4.9 MB between two
+processes (``bench_transport.py``: Zenoh shared memory on, as SofIA's sessions use it, and off),
+to which the plumbing's share of the latency (latency minus the detector's own ``detect()`` time,
+from each detection's ``timings_ms``) is compared; and the replayer's CPU at the same rate reading
+the file lazily (decompressing every loop) against ``--preload``.
+
     .venv/bin/python bench/bench_system.py                 # 60 s (the issue's benchmark)
+    .venv/bin/python bench/bench_system.py --rate 90       # three cameras' worth
     .venv/bin/python bench/bench_system.py --seconds 600   # the 10-minute soak
 """
 
@@ -51,6 +58,7 @@ def subscriber(robot: str, seconds: float, out: Path) -> None:
     keys = Keys(robot)
     clouds: set[int] = set()
     latencies: list[float] = []
+    detect_ms: list[float] = []
     counts = {"clouds": 0, "detections": 0, "unmatched": 0, "objects": 0}
     lock = threading.Lock()
 
@@ -68,6 +76,7 @@ def subscriber(robot: str, seconds: float, out: Path) -> None:
             counts["objects"] += len(det.objects)
             counts["unmatched"] += det.stamp_ns not in clouds
             latencies.append((t_ns - det.stamp_ns) / 1e9)
+            detect_ms.append(float(det.timings_ms.get("total_ms", 0.0)))
 
     with zenoh.open(zenoh_config()) as session:
         session.declare_subscriber(keys.points, on_cloud)
@@ -75,7 +84,7 @@ def subscriber(robot: str, seconds: float, out: Path) -> None:
         print("subscriber ready", flush=True)
         time.sleep(seconds)
     with lock:
-        out.write_text(json.dumps({"latencies": latencies, **counts}))
+        out.write_text(json.dumps({"latencies": latencies, "detect_ms": detect_ms, **counts}))
 
 
 def start(args: list[str], env: dict[str, str], log: Path) -> subprocess.Popen[bytes]:
@@ -91,19 +100,76 @@ def wait_log(path: Path, text: str, timeout: float = 60.0) -> None:
     raise SystemExit(f"{text!r} not in {path}:\n{path.read_text(errors='replace')[-2000:]}")
 
 
+def plumbing_rows(lat: np.ndarray, detect_ms: np.ndarray, baseline: dict[str, dict[str, float]]) -> None:
+    """Rows: detect() time, the plumbing (latency minus detect()) and the bare put -> sub baseline."""
+    if not lat.size:
+        return
+    plumbing = lat - detect_ms
+    for q in (50, 99):
+        d, p = float(np.percentile(detect_ms, q)), float(np.percentile(plumbing, q))
+        print(
+            f"| detect() p{q} (the detector's own timing) | {d:.1f} ms | latency p{q} | {d / np.percentile(lat, q):.2f}x |"
+        )
+        for mode, name in (
+            ("on", "bare Zenoh put -> sub, SHM"),
+            ("off", "bare Zenoh put -> sub, no SHM"),
+        ):
+            if mode in baseline:
+                b = baseline[mode][f"p{q}"]
+                print(
+                    f"| plumbing p{q} (latency - detect()) | {p:.1f} ms | {name} p{q} {b:.2f} ms | {p / b:.2f}x |"
+                )
+
+
+def replay_cpu_runs(rec: Path, env: dict[str, str], tmp: Path, seconds: float) -> dict[str, float]:
+    """CPU (% of one core) of ``sofia replay play --loop --restamp`` at the recorded rate, lazily and
+    with --preload, with a subscriber process taking every cloud."""
+    robot = env["SOFIA_ROBOT"]
+    out: dict[str, float] = {}
+    sub = start([sys.executable, __file__, "--subscriber", robot, str(2 * seconds + 20), str(tmp / "cpu.json")],
+                env, tmp / "cpu-sub.log")  # fmt: skip
+    wait_log(tmp / "cpu-sub.log", "subscriber ready")
+    for name, extra in (("lazy", []), ("preload", ["--preload"])):
+        play = start(
+            [SOFIA, "replay", "play", str(rec), "--loop", "--restamp", *extra], env, tmp / f"cpu-{name}.log"
+        )
+        wait_log(tmp / f"cpu-{name}.log", "preloaded" if extra else "replaying")
+        time.sleep(2.0)  # started, and (preload) the file read: the steady state
+        c0, t0 = cpu_seconds(play.pid), time.monotonic()
+        time.sleep(seconds)
+        out[name] = (cpu_seconds(play.pid) - c0) / (time.monotonic() - t0) * 100
+        play.send_signal(signal.SIGTERM)
+        play.wait(20)
+    sub.send_signal(signal.SIGTERM)
+    sub.wait(20)
+    return out
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--seconds", type=float, default=60.0)
-    ap.add_argument("--rate", type=float, default=30.0, help="cloud rate, Hz")
+    ap.add_argument("--seconds", type=float, default=60.0, help="seconds of replay (default 60)")
+    ap.add_argument("--rate", type=float, default=30.0, help="cloud rate, Hz (default 30)")
     ap.add_argument(
-        "--backlog", type=int, default=1, help="the detector's --backlog (1: only the latest cloud)"
+        "--backlog", type=int, default=1, help="the detector's --backlog (default 1: only the latest cloud)"
     )
+    ap.add_argument(
+        "--no-preload", action="store_true", help="replay reading the file lazily (default: --preload)"
+    )
+    ap.add_argument(
+        "--baseline-messages", type=int, default=300, metavar="N",
+        help="messages of the bare Zenoh put -> subscriber baseline, per mode (default 300; 0: skip)",
+    )  # fmt: skip
+    ap.add_argument(
+        "--replay-cpu-seconds", type=float, default=15.0, metavar="S",
+        help="seconds of each replay-CPU run, lazy and preloaded (default 15; 0: skip)",
+    )  # fmt: skip
     ap.add_argument("--subscriber", nargs=3, metavar=("ROBOT", "SECONDS", "OUT"), help=argparse.SUPPRESS)
     a = ap.parse_args()
     if a.subscriber:
         subscriber(a.subscriber[0], float(a.subscriber[1]), Path(a.subscriber[2]))
         return 0
 
+    from bench_transport import measure
     from sofia_replay.synth import write_scene_set
 
     robot = "bench" + uuid.uuid4().hex[:6]
@@ -112,18 +178,29 @@ def main() -> int:
     rec = tmp / "scenes.mcap"
     n_frames = int(a.rate)  # one second of clouds, played in a loop
     write_scene_set(rec, "mixed", n_frames, seed=11, rate_hz=a.rate, frames="base")
+    baseline = {}
+    if a.baseline_messages:  # first: nothing else of this benchmark runs yet
+        baseline = {m: measure(m, a.baseline_messages, a.rate) for m in ("on", "off")}
+    replay_cpu = replay_cpu_runs(rec, env, tmp, a.replay_cpu_seconds) if a.replay_cpu_seconds else {}
 
     det = start([SOFIA, "detector", "serve", "--backlog", str(a.backlog)], env, tmp / "detector.log")
     wait_log(tmp / "detector.log", "detector ready")
     out = tmp / "sub.json"
-    sub_s = a.seconds + 6.0
+    sub_s = a.seconds + 15.0
     sub = start([sys.executable, __file__, "--subscriber", robot, str(sub_s), str(out)], env, tmp / "sub.log")
     wait_log(tmp / "sub.log", "subscriber ready")
     time.sleep(1.0)
     rss0 = rss_mb(det.pid)
-    cpu0 = {"detector": cpu_seconds(det.pid), "subscriber": cpu_seconds(sub.pid)}
-    play = start([SOFIA, "replay", "play", str(rec), "--loop", "--restamp"], env, tmp / "replay.log")
-    cpu0["replay"] = 0.0
+    preload = [] if a.no_preload else ["--preload"]
+    play = start(
+        [SOFIA, "replay", "play", str(rec), "--loop", "--restamp", *preload], env, tmp / "replay.log"
+    )
+    wait_log(tmp / "replay.log", "preloaded" if preload else "replaying")  # started (and read)
+    cpu0 = {
+        "detector": cpu_seconds(det.pid),
+        "subscriber": cpu_seconds(sub.pid),
+        "replay": cpu_seconds(play.pid),
+    }
     t0 = time.monotonic()
     rss_samples = [rss0]
     while time.monotonic() - t0 < a.seconds:
@@ -142,6 +219,7 @@ def main() -> int:
                             capture_output=True, text=True, timeout=30).stdout  # fmt: skip
     det.send_signal(signal.SIGTERM)
     det.wait(20)
+    rec.unlink()  # hundreds of MB; the logs stay in the temporary folder
     res = json.loads(out.read_text())
     lat = np.array(res["latencies"]) * 1000
     period = 1000.0 / a.rate
@@ -153,8 +231,9 @@ def main() -> int:
             continue
     print(
         f"{a.seconds:.0f} s of 640x480 base-frame clouds replayed at {a.rate:.0f} Hz ({n_frames}-frame synthetic "
-        f"recording in a loop, restamped) -> sofia detector serve --backlog {a.backlog} -> a subscriber in a separate "
-        "process; 2 CPUs\n"
+        f"recording in a loop, restamped{', preloaded' if preload else ''}) -> sofia detector serve --backlog "
+        f"{a.backlog} -> a subscriber in a separate process; {os.cpu_count()} CPUs, load average "
+        f"{' '.join(f'{x:.1f}' for x in os.getloadavg())} at the end\n"
     )
     print("| metric | value | reference | ratio |")
     print("|---|---:|---:|---:|")
@@ -172,11 +251,16 @@ def main() -> int:
         f"| detections received | {res['detections']} | {res['clouds']} clouds | "
         f"{res['detections'] / max(res['clouds'], 1):.3f}x |"
     )
+    plumbing_rows(lat, np.array(res["detect_ms"]), baseline)
     print(f"| frames lost (clouds without detection) | {lost} | 0 | |")
     print(f"| detector's dropped (stale) clouds | {dropped} | 0 | |")
     for name in ("replay", "detector", "subscriber"):
         cpu = (cpu1[name] - cpu0[name]) / elapsed * 100
         print(f"| CPU {name} | {cpu:.0f} % of one core | 100 % | {cpu / 100:.2f}x |")
+    if replay_cpu:
+        lazy, pre = replay_cpu["lazy"], replay_cpu["preload"]
+        print(f"| CPU replay alone, --preload ({a.replay_cpu_seconds:.0f} s) | {pre:.1f} % of one core "
+              f"| lazy (zstd file) {lazy:.1f} % | {pre / lazy:.2f}x |")  # fmt: skip
     warm = rss_samples[min(2, len(rss_samples) - 1)]  # after 10 s of clouds
     quarters = [
         rss_samples[min(len(rss_samples) - 1, round(q * (len(rss_samples) - 1)))] for q in (0.25, 0.5, 0.75)

@@ -24,6 +24,7 @@ ORDER = [
     "bench_autocal",
     "bench_camera",
     "bench_grasp",
+    "bench_transport",
     "bench_system",
     "bench_fuzz",
     "bench_memory",

@@ -15,16 +15,9 @@ from sofia_schemas import pointcloud
 from sofia_schemas.keys import ENCODING_CDR_POINTCLOUD2, ENCODING_JSON, Keys
 from sofia_schemas.messages import Detection, ErrorReply, FlangePose, PickTarget, ServiceStatus
 from sofia_schemas.rosmsg import encode_flange_pose
-from sofia_schemas.zenoh_config import zenoh_config
 
 STAMP_NS = 1_700_000_123_000_000_000
 BLOCK = zenoh.CongestionControl.BLOCK  # clouds of 4 MB: Zenoh must not drop them under load
-
-
-@pytest.fixture
-def session():  # type: ignore[no-untyped-def]
-    with zenoh.open(zenoh_config()) as s:
-        yield s
 
 
 def _collect(session: zenoh.Session, key: str) -> tuple[queue.Queue[bytes], object]:
@@ -192,6 +185,10 @@ def test_burst_keeps_only_the_latest_cloud(sofia_proc, robot_id: str, session, s
     c = status.counters
     assert c["received"] == n and c["processed"] == len(stamps)
     assert c["processed"] + c["dropped"] == c["received"], c
+    if c["dropped"]:  # dropped input: the status says so, with the reason and the count
+        assert status.state == "degraded" and f"stale clouds: {c['dropped']} dropped" in status.detail, status
+    else:
+        assert status.state == "ok", status
     if backlog > n:
         assert c["dropped"] == 0 and stamps == [STAMP_NS + i for i in range(n)]
 

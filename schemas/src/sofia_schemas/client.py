@@ -74,7 +74,7 @@ def fetch_latest(
             for reply in query(session, key, timeout=timeout):
                 if reply.ok is not None:
                     on_sample(reply.ok)
-        except zenoh.ZError as e:  # the session closed first
+        except (zenoh.ZError, RuntimeError) as e:  # the session closed first (or while it was closing)
             log.debug("latest value of %s not fetched: %s", key, e)
 
     thread = threading.Thread(target=run, name=f"fetch {key}", daemon=True)

@@ -19,6 +19,9 @@ restart (a config file that sets ``connect/timeout_ms``, ``exit_on_failure`` or 
 own values). Explicit ``--listen`` endpoints without connect endpoints keep multicast scouting;
 their protocols are then allowed too, and a scouted locator of those protocols is dialled: use a
 router (connect endpoints) on untrusted networks.
+
+Zenoh shared memory (payloads over 3 KB to processes on the same host through ``/dev/shm``) is on
+unless ``$SOFIA_ZENOH_SHM=off``.
 """
 
 from __future__ import annotations
@@ -42,6 +45,7 @@ ENV_LISTEN = "SOFIA_ZENOH_LISTEN"
 ENV_SOCKET_DIR = "SOFIA_ZENOH_SOCKET_DIR"
 ENV_USER = "SOFIA_ZENOH_USER"
 ENV_PASSWORD_FILE = "SOFIA_ZENOH_PASSWORD_FILE"
+ENV_SHM = "SOFIA_ZENOH_SHM"  # "off" (or 0/false/no): no Zenoh shared memory; default on
 DEFAULT_ROUTER_LISTEN = ["tcp/127.0.0.1:7447"]
 LOCAL_PROTOCOL = "unixsock-stream"
 MODES = ("peer", "client", "router")
@@ -211,6 +215,21 @@ def _apply_user(conf: zenoh.Config, env: dict[str, str]) -> None:
     conf.insert_json5("transport/auth/usrpwd/password", json.dumps(password))
 
 
+def shm_wanted(env: dict[str, str] | None = None) -> bool:
+    """False when ``$SOFIA_ZENOH_SHM`` is ``off`` (or 0, false, no): Zenoh shared memory is on by default."""
+    value = (os.environ if env is None else env).get(ENV_SHM, "").strip().lower()
+    return value not in ("off", "0", "false", "no")
+
+
+def _apply_shm(conf: zenoh.Config, env: dict[str, str], default: bool) -> None:
+    """Zenoh shared memory: payloads over 3 KB to a process on the same host travel through a pool
+    in ``/dev/shm`` instead of the socket (a peer that cannot map it gets them over the link).
+    ``$SOFIA_ZENOH_SHM=off`` turns it off; unset: on, or the config file's setting (``default``
+    False)."""
+    if env.get(ENV_SHM, "").strip() or default:
+        conf.insert_json5("transport/shared_memory/enabled", json.dumps(shm_wanted(env)))
+
+
 def zenoh_config(options: ZenohOptions | None = None, env: dict[str, str] | None = None) -> zenoh.Config:
     """Build the :class:`zenoh.Config` of a SofIA process (see the module docstring)."""
     options = options or ZenohOptions()
@@ -229,6 +248,7 @@ def zenoh_config(options: ZenohOptions | None = None, env: dict[str, str] | None
                 conf.insert_json5(path, json.dumps(explicit[name]))
         _wait_for_connect(conf)
         _apply_user(conf, env)
+        _apply_shm(conf, env, default=False)
         return conf
     conf = zenoh.Config()
     conf.insert_json5("mode", json.dumps(s["mode"]))
@@ -247,6 +267,7 @@ def zenoh_config(options: ZenohOptions | None = None, env: dict[str, str] | None
         conf.insert_json5("scouting/multicast/enabled", "false")
     _wait_for_connect(conf)
     _apply_user(conf, env)
+    _apply_shm(conf, env, default=True)
     return conf
 
 

@@ -9,14 +9,16 @@
   empty one the detection of the latest cloud, a bad one an error reply;
 - ``Keys(robot).status("detector")``: :class:`ServiceStatus` every second, and queryable.
 
-Callbacks only hand data over: clouds to a latest-value slot (older unprocessed clouds are dropped
-and counted), queries to a queue; one worker thread detects.
+Callbacks only hand data over, to one :class:`~.worker.WorkQueue` (the newest ``backlog`` clouds:
+older unprocessed clouds are dropped and counted; every query); one worker thread, woken by each
+arrival, answers queries first and detects. A camera cloud waits there for the flange pose of its
+stamp (up to ``POSE_WAIT_S``) while queries are served. Dropped input makes the status ``degraded``
+with the reason and counts (:class:`~.worker.DropLog`).
 """
 
 from __future__ import annotations
 
 import logging
-import queue
 import threading
 import time
 from dataclasses import dataclass, field
@@ -32,23 +34,16 @@ from sofia_schemas.limits import check_payload, error_text
 from sofia_schemas.messages import CalibrationResult, Detection, ServiceStatus, now_ns
 from sofia_schemas.messages.calibration import CameraCorrection, correction_applied
 from sofia_schemas.ros2.encoding import decode_flange, typed_cloud
-from sofia_schemas.service import (
-    LatestSlot,
-    StatusEndpoint,
-    StopFlag,
-    query_payload,
-    reply_error,
-    reply_json,
-    run_worker,
-)
+from sofia_schemas.service import StatusEndpoint, StopFlag, query_payload, reply_error, reply_json, run_worker
 from sofia_schemas.zenoh_config import ZenohOptions, zenoh_config
 
 from .detect import detect
 from .errors import DetectorError, TransformUnavailable, UnknownFrame
-from .frames import FlangeHistory, camera_to_base, load_correction_file, load_transform_file, parse_transform
+from .frames import FlangeHistory, load_correction_file, load_transform_file, parse_transform
 from .params import DetectorParams
 from .pick import PickParams, first_pick
 from .selection import select, split_selection
+from .worker import BAD, UNMAPPED, CloudJob, DropLog, WorkQueue, points_to_base
 
 log = logging.getLogger("sofia.detector")
 STATUS_PERIOD_S = 1.0
@@ -65,16 +60,7 @@ class ServiceConfig:
     pick: PickParams = field(default_factory=PickParams)
     backlog: int = 1  # clouds kept while busy: 1 keeps only the latest; more absorb a short stall
     camera_frames: tuple[str, ...] = ("camera_color_optical_frame",)  # frame ids mapped with T_flange_cam
-
-
-@dataclass(frozen=True)
-class CloudJob:
-    """Received cloud bytes: ``camera`` True for camera-frame clouds; ``key`` where they came from."""
-
-    payload: bytes
-    camera: bool
-    key: str
-    corrected: bool = False  # the producer already applied the camera correction (Zenoh attachment)
+    pose_wait_s: float = POSE_WAIT_S  # how long a camera cloud waits for the flange pose of its stamp
 
 
 class Detector:
@@ -84,8 +70,8 @@ class Detector:
         self.config = config
         self.board = config.board
         self.publish = publish
-        self.slot: LatestSlot[CloudJob] = LatestSlot(config.backlog)
-        self.queries: queue.Queue[zenoh.Query] = queue.Queue()
+        self.drops = DropLog()
+        self.work: WorkQueue[zenoh.Query] = WorkQueue(config.backlog, self.drops)
         self.flange = FlangeHistory()
         self.T_flange_cam: np.ndarray | None = None
         self.correction = CameraCorrection()  # applied to camera-frame clouds before T_flange_cam
@@ -98,7 +84,9 @@ class Detector:
             self.transform_name = f"file {config.transform_file}"
             self.transform_pinned = True
         self.latest: Detection | None = None
-        self.counters = {"processed": 0, "errors": 0, "queries": 0, "query_errors": 0, "no_transform": 0}
+        self.counters = dict.fromkeys(
+            ("processed", "errors", "queries", "query_errors", "no_transform", "bad_clouds"), 0
+        )
         self.last_error = ""
         self.last_ms = 0.0
         self._lock = threading.Lock()
@@ -107,14 +95,14 @@ class Detector:
     def on_points(self, sample: zenoh.Sample) -> None:
         if not typed_cloud(sample, self._error):
             return
-        self.slot.put(CloudJob(sample.payload.to_bytes(), False, str(sample.key_expr)))
+        self.work.put_cloud(CloudJob(sample.payload.to_bytes(), False, str(sample.key_expr)))
 
     def on_camera_points(self, sample: zenoh.Sample) -> None:
         if not typed_cloud(sample, self._error):
             return
         att = sample.attachment
         applied = correction_applied(att.to_bytes() if att is not None else None)
-        self.slot.put(CloudJob(sample.payload.to_bytes(), True, str(sample.key_expr), applied))
+        self.work.put_cloud(CloudJob(sample.payload.to_bytes(), True, str(sample.key_expr), applied))
 
     def on_flange_pose(self, sample: zenoh.Sample) -> None:
         try:
@@ -124,6 +112,7 @@ class Detector:
             self._error(f"flange pose: {error_text(e)}")
             return
         self.flange.add(pose.stamp_ns, pose.matrix())
+        self.work.poke()  # a camera cloud may be waiting for this pose
 
     def on_calibration(self, sample: zenoh.Sample) -> None:
         if self.transform_pinned:
@@ -150,22 +139,26 @@ class Detector:
         log.warning("%s", message)
 
     # --- work -------------------------------------------------------------
-    def run(self, stop: StopFlag) -> None:
-        """Worker loop: queries first, then the newest cloud."""
-        while not stop.is_set():
+    def run(self) -> None:
+        """Worker loop, until the work queue is closed: it sleeps until a query, a ready cloud or a
+        flange pose arrives; queries first, then the oldest cloud kept."""
+        while (item := self.work.get(self.pose_wait)) is not None:
             try:
-                query = self.queries.get(timeout=0.01)
-            except queue.Empty:
-                query = None
-            job = None if query is not None else self.slot.take(timeout=0.02)
-            try:
-                if query is not None:
-                    self.answer(query)
-                elif job is not None:
-                    self.process(job)
+                if isinstance(item, CloudJob):
+                    self.process(item)
+                else:
+                    self.answer(item)
             except Exception as e:  # an unforeseen failure must not stop the service
                 log.exception("detector worker: unexpected error")
                 self._error(f"unexpected {type(e).__name__}: {e}")
+
+    def pose_wait(self, job: CloudJob) -> float:
+        """Seconds ``job`` may still wait for the flange pose of its stamp (0: process it now).
+        Called by the work queue with its lock held: reads the cloud's header only (no copy)."""
+        stamp_ns = job.pose_stamp(lambda frame: self.in_camera_frame(frame, job.camera, job.key))
+        if stamp_ns is None or self.T_flange_cam is None or self.flange.wait_covered(stamp_ns, 0.0):
+            return 0.0
+        return job.arrived_s + self.config.pose_wait_s - time.monotonic()
 
     def detect_payload(self, payload: bytes, camera: bool, key: str, corrected: bool = False) -> Detection:
         """Decode a CDR PointCloud2 and detect. Raises ValueError subclasses on bad input."""
@@ -181,10 +174,9 @@ class Detector:
                     f"cloud in frame {cloud.frame_id!r} and no flange->camera transform: start with "
                     "--transform FILE or run the calibrator"
                 )
-            self.flange.wait_covered(cloud.stamp_ns, POSE_WAIT_S)
-            if not corrected and not corr.is_identity:  # once: skipped when the producer applied it
-                points = corr.apply(points)
-            points = camera_to_base(points, self.flange.at(cloud.stamp_ns) @ T_flange_cam)
+            if corrected:  # the producer applied the correction: it is not applied twice
+                corr = CameraCorrection()
+            points = points_to_base(points, self.flange.at(cloud.stamp_ns) @ T_flange_cam, corr)
         t0 = time.perf_counter()
         det = detect(
             points, self.board, self.config.params, stamp_ns=cloud.stamp_ns, source=key, rgb=cloud.rgb()
@@ -209,9 +201,13 @@ class Detector:
         except TransformUnavailable as e:
             with self._lock:
                 self.counters["no_transform"] += 1
+            self.drops.add(UNMAPPED, error_text(e))
             self._error(str(e))
             return
         except ValueError as e:
+            with self._lock:
+                self.counters["bad_clouds"] += 1
+            self.drops.add(BAD, error_text(f"cloud on {job.key}: {e}"))
             self._error(f"cloud on {job.key}: {e}")
             return
         self.latest = det
@@ -229,7 +225,7 @@ class Detector:
             if payload:
                 det = self.detect_payload(payload, False, f"query {query.key_expr}")
             else:
-                job = self.slot.take(timeout=0)
+                job = self.work.take_cloud(self.pose_wait)
                 if job is not None:
                     self.process(job)
                 if self.latest is None:
@@ -252,10 +248,12 @@ class Detector:
 
     def status(self) -> ServiceStatus:
         with self._lock:
-            counters = dict(self.counters, received=self.slot.received, dropped=self.slot.dropped)
+            counters = dict(self.counters, received=self.work.received, dropped=self.work.dropped)
             transform, detail = self.transform_name, self.last_error
+        state, dropped = self.drops.state()
         return ServiceStatus(
-            service="detector", stamp_ns=now_ns(), state="ok", detail=detail, counters=counters,
+            service="detector", stamp_ns=now_ns(), state=state, detail=dropped or detail,  # type: ignore[arg-type]
+            counters=counters,
             info={
                 "board_frame": self.board.frame_id, "transform": transform,
                 "flange_poses": len(self.flange), "last_detect_ms": round(self.last_ms, 3),
@@ -278,10 +276,10 @@ def main(config: ServiceConfig) -> int:
             session.declare_subscriber(keys.camera_points, service.on_camera_points),
             session.declare_subscriber(keys.flange_pose, service.on_flange_pose),
             session.declare_subscriber(keys.calibration_result, service.on_calibration),
-            session.declare_queryable(keys.detect, service.queries.put),
+            session.declare_queryable(keys.detect, service.work.put_query),
             StatusEndpoint(session, keys.status("detector"), service.status),
         ]
-        worker = run_worker("detector", lambda: service.run(stop))
+        worker = run_worker("detector", service.run)
         fetch_latest(session, keys.calibration_result, service.on_calibration)  # a result from before
         log.info(
             "detector ready: clouds on %s and %s, detections on %s, queries on %s (transform: %s)",
@@ -291,6 +289,7 @@ def main(config: ServiceConfig) -> int:
         while not stop.wait(STATUS_PERIOD_S):
             status.publish()
         log.info("detector stopping")
+        service.work.close()
         worker.join(timeout=5.0)
         for d in declared:
             d.undeclare()

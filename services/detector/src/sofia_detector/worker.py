@@ -1,0 +1,196 @@
+"""The detector service's hand-over: one queue for queries and clouds, waited on by one worker.
+
+Zenoh's callbacks put queries and clouds into a :class:`WorkQueue` and return; the worker blocks in
+:meth:`WorkQueue.get` on one condition variable that wakes on a query, a cloud, a flange pose
+(:meth:`WorkQueue.poke`) or the stop, never sleep-polling. Queries come first. A camera cloud
+whose flange pose has not arrived yet stays at the head of the queue until its pose arrives or
+its wait is over, and queries are served meanwhile.
+
+What the service drops (stale clouds, clouds it cannot map into the base frame, bad clouds) is
+counted per reason by :class:`DropLog`; the status says ``degraded`` while drops are recent.
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from collections import deque
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Generic, TypeVar
+
+import numpy as np
+from sofia_schemas import pointcloud
+from sofia_schemas.messages.calibration import CameraCorrection
+
+Q = TypeVar("Q")
+DEGRADED_WINDOW_S = 10.0  # the status is degraded while the last drop is more recent than this
+STALE = "stale clouds"  # reasons for dropping a cloud, as the status names them
+UNMAPPED = "camera-frame clouds not mapped to the base frame"
+BAD = "bad clouds"
+
+
+@dataclass(slots=True)
+class CloudJob:
+    """Received cloud bytes: ``camera`` True for camera-frame clouds; ``key`` where they came from.
+
+    ``arrived_s`` (monotonic) starts the wait for a flange pose; ``pose_stamp_ns`` is the stamp a
+    camera cloud needs a pose for (set by the worker when it first looks at the cloud; None: no
+    pose needed or the cloud is not readable, so it is processed at once)."""
+
+    payload: bytes
+    camera: bool
+    key: str
+    corrected: bool = False  # the producer already applied the camera correction (Zenoh attachment)
+    arrived_s: float = field(default_factory=time.monotonic)
+    pose_stamp_ns: int | None = None
+    inspected: bool = False
+
+    def pose_stamp(self, in_camera_frame: Callable[[str], bool]) -> int | None:
+        """The stamp this cloud needs a flange pose for: None for clouds in the board's frame and
+        unreadable ones (processing reports those). Reads the header once, without copying."""
+        if not self.inspected:
+            self.inspected = True
+            try:
+                cloud = pointcloud.decode(self.payload)
+                self.pose_stamp_ns = cloud.stamp_ns if in_camera_frame(cloud.frame_id) else None
+            except ValueError:
+                self.pose_stamp_ns = None
+        return self.pose_stamp_ns
+
+
+class WorkQueue(Generic[Q]):
+    """Queries (unbounded: each one is answered) and the newest ``backlog`` clouds (a put on a full
+    queue drops the oldest cloud and counts it in ``dropped`` and ``drops``), behind one condition
+    variable."""
+
+    def __init__(self, backlog: int = 1, drops: DropLog | None = None) -> None:
+        if backlog < 1:
+            raise ValueError(f"backlog must be at least 1 cloud, got {backlog}")
+        self.backlog = backlog
+        self._cond = threading.Condition()
+        self._queries: deque[Q] = deque()
+        self._clouds: deque[CloudJob] = deque()
+        self._closed = False
+        self.received = 0
+        self.dropped = 0
+        self.drops = drops if drops is not None else DropLog()
+
+    def put_query(self, query: Q) -> None:
+        with self._cond:
+            self._queries.append(query)
+            self._cond.notify()
+
+    def put_cloud(self, job: CloudJob) -> CloudJob | None:
+        """Queue ``job``; returns the cloud dropped to make room (None when there was room)."""
+        with self._cond:
+            old = self._clouds.popleft() if len(self._clouds) == self.backlog else None
+            self.dropped += old is not None
+            self._clouds.append(job)
+            self.received += 1
+            self._cond.notify()
+        if old is not None:
+            self.drops.add(STALE, f"a newer cloud arrived before it was detected (backlog {self.backlog})")
+        return old
+
+    def poke(self) -> None:
+        """Wake the worker: something a waiting cloud depends on (a flange pose) arrived."""
+        with self._cond:
+            self._cond.notify()
+
+    def close(self) -> None:
+        with self._cond:
+            self._closed = True
+            self._cond.notify_all()
+
+    def get(self, pose_wait: Callable[[CloudJob], float]) -> Q | CloudJob | None:
+        """Block until there is work: the oldest query, else the oldest cloud once
+        ``pose_wait(cloud)`` (seconds it still has to wait, called with the queue locked) is 0.
+        None once closed."""
+        with self._cond:
+            while not self._closed:
+                if self._queries:
+                    return self._queries.popleft()
+                job = self._ready_cloud(pose_wait)
+                if isinstance(job, CloudJob):
+                    return job
+                self._cond.wait(job)
+            return None
+
+    def take_cloud(self, pose_wait: Callable[[CloudJob], float]) -> CloudJob | None:
+        """The oldest cloud if it is ready now, without waiting."""
+        with self._cond:
+            job = self._ready_cloud(pose_wait)
+            return job if isinstance(job, CloudJob) else None
+
+    def _ready_cloud(self, pose_wait: Callable[[CloudJob], float]) -> CloudJob | float | None:
+        """The head cloud, taken, when ready; else how long it may still wait (None: no cloud)."""
+        if not self._clouds:
+            return None
+        wait = pose_wait(self._clouds[0])
+        return self._clouds.popleft() if wait <= 0 else wait
+
+    def __len__(self) -> int:
+        return len(self._clouds)
+
+
+class DropLog:
+    """Input the service dropped, per reason: total counts and the last time and message."""
+
+    def __init__(self, window_s: float = DEGRADED_WINDOW_S) -> None:
+        self.window_s = window_s
+        self.counts: dict[str, int] = {}
+        self._last: dict[str, tuple[float, str]] = {}
+        self._lock = threading.Lock()
+
+    def add(self, reason: str, message: str, n: int = 1) -> None:
+        with self._lock:
+            self.counts[reason] = self.counts.get(reason, 0) + n
+            self._last[reason] = (time.monotonic(), message)
+
+    def recent(self) -> list[tuple[str, int, str]]:
+        """(reason, total count, last message) of the reasons with a drop within the window."""
+        now = time.monotonic()
+        with self._lock:
+            return [
+                (r, self.counts[r], msg)
+                for r, (t, msg) in sorted(self._last.items())
+                if now - t <= self.window_s
+            ]
+
+    def state(self) -> tuple[str, str]:
+        """``("degraded", what was dropped and why)`` while drops are recent, else ``("ok", "")``."""
+        recent = self.recent()
+        if not recent:
+            return "ok", ""
+        parts = [f"{reason}: {n} dropped (last: {msg})" for reason, n, msg in recent]
+        return "degraded", "; ".join(parts)
+
+
+def correction_matrix(correction: CameraCorrection) -> np.ndarray:
+    """(4, 4) affine ``A``: corrected camera point = ``A[:3, :3] @ p_measured + A[:3, 3]`` (every
+    :class:`CameraCorrection` model is affine)."""
+    A = np.eye(4)
+    if correction.model == "ray_scale":
+        A[:3, :3] *= correction.depth_scale
+    elif correction.model in ("depth_scale", "depth_scale_offset"):
+        A[2, 2] = correction.depth_scale
+        if correction.model == "depth_scale_offset":
+            A[2, 3] = correction.depth_offset_m
+    return A
+
+
+def points_to_base(
+    points_cam: np.ndarray, T_base_cam: np.ndarray, correction: CameraCorrection
+) -> np.ndarray:
+    """Measured camera-frame points into the base frame, the correction folded into one affine map.
+
+    points_cam: (..., 3) float (any strides: a view of the received bytes), camera optical frame,
+    metres, NaN kept. T_base_cam: (4, 4). Returns (..., 3) float32 points_base: the one array
+    allocated (no intermediate copy of the cloud)."""
+    M = T_base_cam @ correction_matrix(correction)
+    out = np.empty(points_cam.shape, np.float32)
+    with np.errstate(invalid="ignore", over="ignore"):
+        np.matmul(points_cam, M[:3, :3].T.astype(np.float32), out=out)
+        out += M[:3, 3].astype(np.float32)
+    return out

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import json
+import os
+import subprocess
 import threading
 import time
 
@@ -12,6 +14,7 @@ from sofia_schemas.client import ask
 from sofia_schemas.kinematics import panda_fk, pose_matrix, rotation_to_quat_xyzw
 from sofia_schemas.messages import ArmResult, GripperState, ServiceStatus
 
+from ..conftest import SOFIA
 from .conftest import Arm
 
 HOME = np.array([0.0, 0.0, 0.0, -1.5708, 0.0, 1.5708, 0.7854])
@@ -171,3 +174,22 @@ def test_robot_lost_mid_motion_then_recover(arm: Arm) -> None:
     assert_at(arm, panda_fk(Q_A))
     assert json.loads(json.dumps(r.model_dump()))["status"] == "done"
     assert pytest.approx(0) == 0
+
+
+def test_cli_prints_text_and_json(arm: Arm) -> None:
+    """`sofia arm state` / `sofia arm stop` against the running service: text for people, --json for
+    machines (one object)."""
+    env = dict(os.environ, SOFIA_ROBOT=arm.keys.robot)
+
+    def sofia(*args: str) -> subprocess.CompletedProcess[str]:
+        return subprocess.run([SOFIA, "arm", *args], env=env, capture_output=True, text=True, timeout=120)
+
+    state, state_json = sofia("state"), sofia("state", "--json")
+    assert state.returncode == 0 and state.stdout.startswith("arm: connected, mode "), (
+        state.stdout + state.stderr
+    )
+    assert "errors: none" in state.stdout and " rad" in state.stdout
+    assert json.loads(state_json.stdout)["connected"] is True, state_json.stdout
+    stop, stop_json = sofia("stop"), sofia("stop", "--json")
+    assert stop.returncode == 0 and stop.stdout.startswith("stop: done"), stop.stdout + stop.stderr
+    assert ArmResult.model_validate_json(stop_json.stdout).status == "done", stop_json.stdout

@@ -40,7 +40,9 @@ def test_phase_poses_go_down_and_up_along_the_base_z_axis() -> None:
 
 
 def sim_truth(*args: str) -> dict:
-    out = subprocess.run([SOFIA, "camera", "sim-truth", *args], capture_output=True, text=True, timeout=120)
+    out = subprocess.run(
+        [SOFIA, "camera", "sim-truth", *args, "--json"], capture_output=True, text=True, timeout=120
+    )
     assert out.returncode == 0, out.stderr
     return json.loads(out.stdout)
 

@@ -7,11 +7,11 @@ Light on purpose (Zenoh and the schemas only): the calibrator's command line reg
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from typing import Any
 
 from sofia_schemas.keys import Keys, default_robot
+from sofia_schemas.output import add_json_option, emit
 from sofia_schemas.zenoh_config import ZenohOptions, add_zenoh_args, zenoh_config
 
 
@@ -28,11 +28,11 @@ def register_auto(calibrate_parser: argparse.ArgumentParser) -> None:
     a.add_argument("--guess", nargs=7, type=float, metavar=("X", "Y", "Z", "QX", "QY", "QZ", "QW"),
                    help="rough T_flange_cam (default: the camera's rotation from the table)")  # fmt: skip
     a.add_argument("--target-mm", type=float, default=1.0, help="stop at this translation 1-sigma (mm)")
-    a.add_argument("--max-poses", type=int, default=20, help="pose budget")
-    a.add_argument("--min-poses", type=int, default=6)
+    a.add_argument("--max-poses", type=int, default=20, help="pose budget: most poses visited (default 20)")
+    a.add_argument("--min-poses", type=int, default=6, help="poses taken before stopping early (default 6)")
     a.add_argument("--speed", type=float, default=0.2, help="relative speed (capped by the arm's limits)")
     a.add_argument("--timeout", type=float, default=600.0, help="seconds for the whole calibration")
-    a.add_argument("--json", action="store_true", help="print the final ArmResult as JSON")
+    add_json_option(a, "the final ArmResult, one object; the poses as they are taken go to stderr")
     a.add_argument("--robot", default=None, help="robot id (default $SOFIA_ROBOT or panda)")
     add_zenoh_args(a)
     a.set_defaults(func=run_auto)
@@ -62,7 +62,8 @@ def run_auto(args: argparse.Namespace) -> int:
             p = ArmPhase.model_validate_json(s.payload.to_bytes())
         except ValueError:
             return
-        print(f"{'ok  ' if p.status == 'done' else 'FAIL'} {p.name}: {p.reason}", flush=True)
+        line = f"{'ok  ' if p.status == 'done' else 'FAIL'} {p.name}: {p.reason}"
+        print(line, file=sys.stderr if args.json else sys.stdout, flush=True)
 
     with zenoh.open(zenoh_config(ZenohOptions.from_args(args))) as session:
         sub = session.declare_subscriber(keys.arm_progress, show)
@@ -74,7 +75,7 @@ def run_auto(args: argparse.Namespace) -> int:
         finally:
             sub.undeclare()
     if args.json:
-        print(json.dumps(res.model_dump(mode="json")))
+        emit(args, res, "")
         return 0 if res.ok else 1
     r = res.details.get("result")
     print(f"{res.status}: {res.reason} ({res.details.get('samples', 0)} samples, {res.duration_s:.0f} s)")

@@ -3,14 +3,14 @@
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 from typing import Any
 
 from sofia_schemas.client import query
 from sofia_schemas.keys import ENCODING_JSON, Keys, default_robot
-from sofia_schemas.messages import ArmCommand, ArmState
+from sofia_schemas.messages import ArmCommand, ArmResult, ArmState
+from sofia_schemas.output import add_json_option, emit
 from sofia_schemas.zenoh_config import ZenohOptions, add_zenoh_args, zenoh_config
 
 
@@ -26,7 +26,12 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     s.add_argument("--model", choices=("panda", "fr3"), help="joint limits of this robot (default panda)")
     s.add_argument("--max-speed", type=float, metavar="F",
                    help="relative velocity, acceleration and jerk limit, (0, 1] (default 0.1)")  # fmt: skip
-    s.add_argument("--rate", type=float, metavar="HZ", help="flange pose / joint state rate (default 200)")
+    s.add_argument("--hz", type=float, metavar="HZ", help="flange pose / joint state rate, Hz (default 200)")
+    s.add_argument("--rate", type=float, dest="hz", help=argparse.SUPPRESS)  # old name of --hz
+    s.add_argument("--realtime", choices=("ignore", "enforce"),
+                   help="enforce: libfranka's control thread must run with real-time priority (PREEMPT_RT "
+                        "kernel, rtprio for the user) or the connection fails; ignore: run without "
+                        "(default ignore)")  # fmt: skip
     add_zenoh_args(s)
     s.set_defaults(func=_serve)
 
@@ -35,6 +40,7 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
         add_zenoh_args(a)
         a.add_argument("--robot", default=None, help="robot id (default $SOFIA_ROBOT or panda)")
         a.add_argument("--timeout", type=float, default=60.0, help="command timeout, s")
+        add_json_option(a, "the ArmState, one object" if name == "state" else "the ArmResult, one object")
         if name not in ("state", "stop", "recover"):
             a.add_argument("--speed", type=float, default=0.1, help="relative speed, (0, 1] (default 0.1)")
         return a
@@ -43,7 +49,11 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     target = m.add_mutually_exclusive_group(required=True)
     target.add_argument("--joints", type=float, nargs=7, metavar="Q", help="7 joint positions, rad")
     target.add_argument(
-        "--pose", type=float, nargs=7, metavar="V", help="x y z qx qy qz qw (flange, base frame)"
+        "--pose",
+        type=float,
+        nargs=7,
+        metavar="V",
+        help="flange pose, base frame: x y z in m, then quaternion qx qy qz qw",
     )
     m.set_defaults(func=_command, action="move")
     for name, help in (("home", "move to the home joint positions"), ("stop", "stop any motion now"),
@@ -63,7 +73,7 @@ def _serve(args: argparse.Namespace) -> int:
 
     f = args.max_speed
     arm = load_config(args.config, model=args.model, max_velocity=f, max_acceleration=f, max_jerk=f,
-                      state_rate_hz=args.rate)  # fmt: skip
+                      state_rate_hz=args.hz, realtime=args.realtime)  # fmt: skip
     conf = ServiceConfig(arm=arm, robot=default_robot(), zenoh=ZenohOptions.from_args(args),
                          robot_ip=args.robot_ip, sim=args.sim)  # fmt: skip
     return main(conf)
@@ -90,7 +100,7 @@ def _ask(args: argparse.Namespace, key: str, payload: bytes | None, timeout: flo
     with zenoh.open(zenoh_config(ZenohOptions.from_args(args))) as session:
         replies = query(session, key, payload, timeout=timeout, encoding=ENCODING_JSON if payload else None)
     if not replies:
-        return 3, f"no arm service answered on {key}"
+        return 1, f"no arm service answered on {key}"
     reply = replies[0]
     if reply.ok is not None:
         return 0, reply.ok.payload.to_bytes().decode()
@@ -109,9 +119,9 @@ def _command(args: argparse.Namespace) -> int:
     if code:
         print(f"sofia arm {args.action}: {text}", file=sys.stderr)
         return code
-    result = json.loads(text)
-    print(json.dumps(result))
-    return 0 if result.get("ok") else 1
+    result = ArmResult.model_validate_json(text)
+    emit(args, result, lambda: describe_result(result))
+    return 0 if result.ok else 1
 
 
 def _state(args: argparse.Namespace) -> int:
@@ -124,9 +134,9 @@ def _state(args: argparse.Namespace) -> int:
         sample = sub.recv() if args.timeout <= 0 else _recv(sub, args.timeout)
     if sample is None:
         print(f"sofia arm state: nothing published on {key} within {args.timeout:g} s", file=sys.stderr)
-        return 3
+        return 1
     state = ArmState.model_validate_json(sample.payload.to_bytes())
-    print(state.model_dump_json(indent=2, exclude={"last_result"} if state.last_result is None else None))
+    emit(args, state, lambda: describe_state(state))
     return 0 if state.mode != "error" else 1
 
 
@@ -140,3 +150,38 @@ def _recv(sub: Any, timeout: float) -> Any:
             return sample
         time.sleep(0.02)
     return None
+
+
+def _pose(position: object, quaternion: object) -> str:
+    if position is None:
+        return "unknown"
+    p = ", ".join(f"{v:.4f}" for v in position)  # type: ignore[attr-defined]
+    q = ", ".join(f"{v:.4f}" for v in quaternion) if quaternion is not None else "?"  # type: ignore[attr-defined]
+    return f"[{p}] m, quaternion x y z w [{q}]"
+
+
+def describe_result(result: ArmResult) -> str:
+    """For people: the outcome, the flange pose reached and each phase of a multi-step command."""
+    lines = [f"{result.command}: {result.status}" + (f" ({result.reason})" if result.reason else "")
+             + f", {result.duration_s:.1f} s"]  # fmt: skip
+    if result.position is not None:
+        lines.append(f"  flange at {_pose(result.position, result.quaternion_xyzw)} (base frame)")
+    lines += [f"  {'ok  ' if p.status == 'done' else 'FAIL'} {p.name}: {p.reason}" for p in result.phases]
+    return "\n".join(lines)
+
+
+def describe_state(state: ArmState) -> str:
+    """For people: connection, mode, motion, flange pose, joints and rates."""
+    q = ", ".join(f"{v:.3f}" for v in state.q) if state.q is not None else "unknown"
+    lines = [
+        f"arm: {'connected' if state.connected else 'NOT connected'}, mode {state.mode}"
+        + (f" (robot: {state.robot_mode})" if state.robot_mode else "") + (", moving" if state.moving else ""),
+        f"  flange at {_pose(state.position, state.quaternion_xyzw)} (base frame)",
+        f"  joints [{q}] rad",
+        f"  rates: robot {state.robot_rate_hz:.0f} Hz, read {state.state_rate_hz:.0f} Hz, "
+        f"published {state.publish_rate_hz:.0f} Hz",
+    ]  # fmt: skip
+    lines.append(f"  errors: {', '.join(state.errors) or 'none'}")
+    if state.last_result is not None:
+        lines.append("  last command: " + describe_result(state.last_result).replace("\n", "\n  "))
+    return "\n".join(lines)

@@ -4,6 +4,7 @@ thresholds, state rate, tolerances (YAML or JSON file, every field optional)."""
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 from sofia_schemas.files import FileContentError, load_json_or_yaml
@@ -45,6 +46,10 @@ class ArmConfig(BaseModel):
     still_speed_rad_s: float = Field(0.001, gt=0.0)  # mean joint speed below which the arm is still
     gripper_state_max_age_s: float = Field(2.0, gt=0.0)  # older gripper states are ignored
     reconnect_period_s: float = Field(1.0, gt=0.0)
+    # "enforce": libfranka's control thread must get real-time priority (a PREEMPT_RT kernel and
+    # rtprio for the user, as on the lab's control PC) or the connection fails; "ignore": it runs
+    # without (franky-sim, development machines, CI)
+    realtime: Literal["ignore", "enforce"] = "ignore"
 
     @model_validator(mode="after")
     def _check(self) -> ArmConfig:

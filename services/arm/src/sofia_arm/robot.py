@@ -24,6 +24,7 @@ from .clock import ClockMap
 from .config import ArmConfig
 
 log = logging.getLogger(__name__)
+REALTIME = {"ignore": franky.RealtimeConfig.Ignore, "enforce": franky.RealtimeConfig.Enforce}
 HISTORY_S = 1.0
 
 
@@ -107,7 +108,7 @@ class RobotLink:
         c = self.config
         robot = franky.Robot(
             self.host, relative_dynamics_factor=1.0, default_torque_threshold=c.torque_threshold_nm,
-            default_force_threshold=c.force_threshold_n, realtime_config=franky.RealtimeConfig.Ignore,
+            default_force_threshold=c.force_threshold_n, realtime_config=REALTIME[c.realtime],
         )  # fmt: skip
         robot.set_collision_behavior(c.torque_threshold_nm, c.force_threshold_n)
         self.robot = robot
@@ -145,6 +146,12 @@ class RobotLink:
             if robot is None:
                 try:
                     robot = self.connect()
+                except franky.RealtimeException as e:  # --realtime enforce without an RT kernel
+                    if self.error is None:
+                        log.error("cannot control the robot at %s: %s", self.host, e)
+                    self.error = f"real-time priority required (--realtime enforce) but refused: {e}"
+                    self._stop.wait(self.config.reconnect_period_s)
+                    continue
                 except Exception as e:  # franky raises its own exception types
                     log.debug("robot at %s not reachable: %s", self.host, e)
                     self._stop.wait(self.config.reconnect_period_s)

@@ -93,7 +93,7 @@ def main() -> int:
     host = args.robot_ip or sim.host  # type: ignore[union-attr]
     env = dict(os.environ, SOFIA_ROBOT=robot_id, PYTHONUNBUFFERED="1")
     service = subprocess.Popen([SOFIA, "--log-level", "WARNING", "arm", "serve", "--robot-ip", host,
-                                "--max-speed", "0.5", "--rate", str(args.rate)], env=env)  # fmt: skip
+                                "--max-speed", "0.5", "--hz", str(args.rate)], env=env)  # fmt: skip
     keys = Keys(robot_id)
     try:
         with zenoh.open(zenoh_config()) as session:

@@ -3,11 +3,9 @@ error. Each case is a real `sofia` process; they run side by side to keep the te
 
 from __future__ import annotations
 
-import logging
 import os
 import subprocess
 import sys
-from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
@@ -46,16 +44,6 @@ PROCESSES: list[tuple[list[str], int, str]] = [
     (["replay", "play"], 2, "the following arguments are required: file"),
     (["--version"], 0, ""),
 ]
-
-
-@pytest.fixture
-def root_logging() -> Iterator[None]:
-    """`sofia` configures the root logger; put this process's logging back afterwards."""
-    root = logging.getLogger()
-    handlers, level = list(root.handlers), root.level
-    yield
-    root.handlers[:] = handlers
-    root.setLevel(level)
 
 
 @pytest.mark.parametrize("argv,code,text", IN_PROCESS, ids=[" ".join(c[0][:2]) for c in IN_PROCESS])

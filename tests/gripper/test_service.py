@@ -95,16 +95,23 @@ def test_cli_commands_against_the_service(service: Proc, robot_id: str) -> None:
     def sofia(*args: str) -> subprocess.CompletedProcess[str]:
         return subprocess.run([SOFIA, "gripper", *args], env=env, capture_output=True, text=True, timeout=60)
 
-    done = sofia("grasp", "--force", "10")
+    done = sofia("grasp", "--force", "10", "--json")
     assert done.returncode == 0, done.stderr
-    assert json.loads(done.stdout)["grasped"] is True
+    assert json.loads(done.stdout)["grasped"] is True  # one object on one line
+    text = sofia("grasp", "--force", "10")  # for people: one sentence, not JSON
+    assert text.returncode == 0 and text.stdout.startswith("grasp: stalled, opening"), text.stdout
     bad = sofia("move", "--opening", "500")
     assert bad.returncode == 1 and "OutOfRange" in bad.stderr and "500" in bad.stderr
     assert sofia("open").returncode == 0
-    state = sofia("state")
+    state = sofia("state", "--json")
     assert state.returncode == 0 and json.loads(state.stdout)["state"]["connected"] is True
+    state_text = sofia("state")
+    assert state_text.returncode == 0 and "connected: True" in state_text.stdout, state_text.stdout
     health = subprocess.run([SOFIA, "health", "gripper"], env=env, capture_output=True, text=True, timeout=60)
     assert health.returncode == 0 and health.stdout.startswith("gripper: ok"), health.stdout + health.stderr
+    health_json = subprocess.run([SOFIA, "health", "gripper", "--json"], env=env, capture_output=True, text=True,
+                                 timeout=60)  # fmt: skip
+    assert json.loads(health_json.stdout)["state"] == "ok", health_json.stdout + health_json.stderr
     invalid = sofia("grasp", "--force", "-3")
     assert invalid.returncode == 2 and "force_n" in invalid.stderr
 

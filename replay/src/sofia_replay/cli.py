@@ -13,6 +13,7 @@ import time
 from pathlib import Path
 
 from sofia_schemas.keys import default_robot
+from sofia_schemas.output import add_json_option, emit
 from sofia_schemas.zenoh_config import ZenohOptions, add_zenoh_args, open_session
 
 log = logging.getLogger("sofia.replay")
@@ -60,12 +61,17 @@ def register_replay(sub: argparse._SubParsersAction) -> None:  # type: ignore[ty
     )  # fmt: skip
     play.add_argument("--progress", type=float, default=5.0, metavar="S",
                       help="seconds between progress log lines (default 5)")  # fmt: skip
+    play.add_argument(
+        "--preload", action="store_true",
+        help="read the played messages into memory once, decompressed, before playing: no file reading "
+        "or decompression while playing (needs their size in RAM, logged; default: off, read lazily)",
+    )  # fmt: skip
     add_zenoh_args(play)
     play.set_defaults(func=_play)
 
     info = s.add_parser("info", help="topics, counts, schemas and duration of an MCAP file")
     info.add_argument("file", type=Path, help="MCAP file")
-    info.add_argument("--json", action="store_true", help="print one JSON object (default: text)")
+    add_json_option(info, "the summary, one object")
     info.add_argument(
         "--truth", action="store_true", help="also print the ground truth metadata (default: off)"
     )
@@ -83,6 +89,7 @@ def register_replay(sub: argparse._SubParsersAction) -> None:  # type: ignore[ty
                       help="convert only TOPIC, repeatable (default: every topic of a converted type)")  # fmt: skip
     conv.add_argument("--compression", choices=["zstd", "lz4", "none"], default="zstd",
                       help="chunk compression of the MCAP (default zstd)")  # fmt: skip
+    add_json_option(conv, "the counts per topic, one object")
     conv.set_defaults(func=_convert)
 
     exp = s.add_parser(
@@ -96,6 +103,7 @@ def register_replay(sub: argparse._SubParsersAction) -> None:  # type: ignore[ty
     exp.add_argument("--index", type=int, default=0, metavar="N",
                      help="which message of the topic, 0 = first, -1 = last (default 0)")  # fmt: skip
     exp.add_argument("--out", type=Path, required=True, metavar="FILE", help="file to write (e.g. cloud.cdr)")
+    add_json_option(exp, "the message exported, one object")
     exp.set_defaults(func=_export)
 
 
@@ -117,6 +125,7 @@ def _play(args: argparse.Namespace) -> int:
         wait_subscribers_s=args.wait_subscribers,
         progress_period_s=args.progress,
         restamp=args.loop if args.restamp is None else args.restamp,
+        preload=args.preload,
     )
     robot = args.robot or default_robot()
     stop = StopFlag()
@@ -138,7 +147,7 @@ def _info(args: argparse.Namespace) -> int:
         out = s.to_dict()
         if args.truth:
             out["truth"] = truth
-        print(json.dumps(out, indent=2))
+        emit(args, out, "")
     else:
         print(s.format())
         if args.truth:
@@ -150,13 +159,13 @@ def _convert(args: argparse.Namespace) -> int:
     from .convert import convert_bag, parse_topic_map
 
     report = convert_bag(args.input, args.output, parse_topic_map(args.rename), args.only, args.compression)
-    print(f"{args.output}: {report.n_written} messages")
-    for topic, n in sorted(report.written.items()):
-        print(f"  {topic}: {n}")
-    for topic, msgtype in sorted(report.skipped_topics.items()):
-        print(f"  skipped {topic} ({msgtype})")
-    for topic, n in sorted(report.rejected.items()):
-        print(f"  rejected {n} messages of {topic}")
+    lines = [f"{args.output}: {report.n_written} messages"]
+    lines += [f"  {topic}: {n}" for topic, n in sorted(report.written.items())]
+    lines += [f"  skipped {topic} ({msgtype})" for topic, msgtype in sorted(report.skipped_topics.items())]
+    lines += [f"  rejected {n} messages of {topic}" for topic, n in sorted(report.rejected.items())]
+    result = {"output": args.output, "messages": report.n_written, "written": report.written,
+              "skipped": report.skipped_topics, "rejected": report.rejected}  # fmt: skip
+    emit(args, result, "\n".join(lines))
     return 0
 
 
@@ -164,9 +173,10 @@ def _export(args: argparse.Namespace) -> int:
     from .export import export_message
 
     m = export_message(args.file, args.out, args.topic, args.index)
-    print(
-        f"{args.out}: {m.topic}[{args.index}] ({m.schema_name}, {len(m.data)} bytes, log time {m.log_time_ns} ns)"
-    )
+    result = {"out": args.out, "topic": m.topic, "index": args.index, "schema": m.schema_name,
+              "bytes": len(m.data), "log_time_ns": m.log_time_ns}  # fmt: skip
+    text = f"{args.out}: {m.topic}[{args.index}] ({m.schema_name}, {len(m.data)} bytes, log time {m.log_time_ns} ns)"
+    emit(args, result, text)
     return 0
 
 
@@ -191,6 +201,7 @@ def register_synth(sub: argparse._SubParsersAction) -> None:  # type: ignore[typ
     sc.add_argument("--board", type=Path, default=None, help="board YAML/JSON (default: the shipped board)")
     sc.add_argument("--frames", choices=["base", "camera", "both"], default="both",
                     help="clouds in the base frame (/pc_glob), camera frame, or both (default both)")  # fmt: skip
+    add_json_option(sc, "the file written, one object")
     sc.set_defaults(func=_synth_scenes)
 
     cal = s.add_parser("calibration", help="a hand-eye calibration session (blob target)")
@@ -201,6 +212,7 @@ def register_synth(sub: argparse._SubParsersAction) -> None:  # type: ignore[typ
     cal.add_argument("--seed", type=int, default=0, help="random seed of the poses and noise (default 0)")
     cal.add_argument("--no-clouds", action="store_true",
                      help="only poses and blob observations, no camera clouds (default: with clouds)")  # fmt: skip
+    add_json_option(cal, "the file written, one object")
     cal.set_defaults(func=_synth_calibration)
 
 
@@ -222,8 +234,9 @@ def _synth_scenes(args: argparse.Namespace) -> int:
         board=board,
         frames=args.frames,
     )
-    log.info("%d scenes written in %.1f s", args.n, time.monotonic() - t0)
-    print(args.output)
+    seconds = time.monotonic() - t0
+    log.info("%d scenes written in %.1f s", args.n, seconds)
+    emit(args, {"output": args.output, "scenes": args.n, "seconds": round(seconds, 1)}, str(args.output))
     return 0
 
 
@@ -234,6 +247,7 @@ def _synth_calibration(args: argparse.Namespace) -> int:
     t0 = time.monotonic()
     log.info("rendering a %d-pose calibration session into %s ...", args.n_poses, args.output)
     write_calibration_session(args.output, n_poses=args.n_poses, seed=args.seed, clouds=not args.no_clouds)
-    log.info("%d poses written in %.1f s", args.n_poses, time.monotonic() - t0)
-    print(args.output)
+    seconds = time.monotonic() - t0
+    log.info("%d poses written in %.1f s", args.n_poses, seconds)
+    emit(args, {"output": args.output, "poses": args.n_poses, "seconds": round(seconds, 1)}, str(args.output))
     return 0

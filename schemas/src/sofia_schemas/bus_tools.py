@@ -16,6 +16,7 @@ from .client import query as query_replies
 from .decode import describe
 from .keys import Keys, default_robot
 from .messages import ServiceStatus
+from .output import add_json_option, emit
 from .service import StopFlag
 from .zenoh_config import ZenohOptions, add_zenoh_args, zenoh_config
 
@@ -36,7 +37,7 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     p.add_argument(
         "--timeout", type=float, default=0.0, metavar="S", help="stop after S seconds (default 0: no limit)"
     )
-    p.add_argument("--json", action="store_true", help="one JSON object per line (default: indented text)")
+    add_json_option(p, "one object per message and line")
     add_zenoh_args(p)
     p.set_defaults(func=echo)
 
@@ -54,7 +55,7 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     p.add_argument(
         "--timeout", type=float, default=10.0, metavar="S", help="seconds to wait for replies (default 10)"
     )
-    p.add_argument("--json", action="store_true", help="one JSON object per line (default: indented text)")
+    add_json_option(p, "one object per reply and line")
     add_zenoh_args(p)
     p.set_defaults(func=query)
 
@@ -64,6 +65,7 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     p.add_argument(
         "--timeout", type=float, default=5.0, metavar="S", help="seconds to wait for the status (default 5)"
     )
+    add_json_option(p, "the service's status, one object")
     add_zenoh_args(p)
     p.set_defaults(func=health)
 
@@ -128,9 +130,8 @@ def query(args: argparse.Namespace) -> int:
             elif (err := reply.err) is not None:
                 n_err += 1
                 desc = describe(err.payload.to_bytes(), str(err.encoding))
-                print(
-                    json.dumps({"error": desc.get("json", desc)}, indent=None if args.json else 2), flush=True
-                )
+                error = {"key": args.key, "error": desc.get("json", desc)}
+                emit(args, error, f"── error reply from {args.key}\n{json.dumps(error['error'], indent=2)}")
     if n_ok == 0 and n_err == 0:
         print(f"sofia query: no reply from {args.key} within {args.timeout} s", file=sys.stderr)
         return 1
@@ -143,9 +144,12 @@ def health(args: argparse.Namespace) -> int:
         try:
             status = ask(session, key, ServiceStatus, timeout=args.timeout)
         except (QueryError, ValueError) as e:  # no or an error reply; an unreadable status
-            print(f"{args.service}: {e}", file=sys.stderr)
+            if args.json:
+                emit(args, {"service": args.service, "state": "unreachable", "detail": str(e)}, "")
+            else:
+                print(f"{args.service}: {e}", file=sys.stderr)
             return 1
-    print(f"{args.service}: {status.state} {status.detail}".rstrip())
+    emit(args, status, f"{args.service}: {status.state} {status.detail}".rstrip())
     return 0 if status.state in HEALTHY else 1
 
 

@@ -19,6 +19,7 @@ from importlib.metadata import PackageNotFoundError, entry_points, version
 from pathlib import Path
 
 from .messages import ALL_MESSAGES
+from .output import add_json_option, emit
 
 log = logging.getLogger("sofia")
 
@@ -51,15 +52,18 @@ def register_schemas(sub: argparse._SubParsersAction) -> None:  # type: ignore[t
     e.add_argument(
         "dir", type=Path, help="folder to write <Message>.schema.json files into (made if missing)"
     )
+    add_json_option(e, "the folder and the files written, one object")
     e.set_defaults(func=_export)
 
 
 def _export(args: argparse.Namespace) -> int:
     args.dir.mkdir(parents=True, exist_ok=True)
+    written = []
     for model in ALL_MESSAGES:
         path = args.dir / f"{model.__name__}.schema.json"
         path.write_text(json.dumps(model.model_json_schema(), indent=2) + "\n")
-        print(path)
+        written.append(path)
+    emit(args, {"dir": args.dir, "files": written}, "\n".join(map(str, written)))
     return 0
 
 

@@ -23,13 +23,14 @@ from sofia_schemas.transforms import rotation_angle
 from .bus import Collector, wait_until
 from .steps import sofia
 from .summary import Summary, say
+from .wording import field_text, transform_text
 
 PLACE = (0.45, -0.25, 0.25)  # flange position of the place pose, base frame, metres
 SPEED = 1.0  # franky-sim at full relative speed (a real arm: the service's limits cap it)
 
 
 def _truth(scene: str, robot: str) -> dict:
-    out = sofia("camera", "sim-truth", "--sim-scene", scene, env_robot=robot, timeout=120)
+    out = sofia("camera", "sim-truth", "--sim-scene", scene, "--json", env_robot=robot, timeout=120)
     if out.returncode != 0:
         raise RuntimeError(f"sofia camera sim-truth: {out.stderr[-500:]}")
     return dict(json.loads(out.stdout))
@@ -82,9 +83,9 @@ def calibrate(session: zenoh.Session, keys: Keys, T_true: np.ndarray, summary: S
     )
     say(f"  ROS 1: {r.get('ros1_static_transform', '')}")
     ok = res.ok and dt_mm < 2.0 and dr_deg < 0.3
-    summary.add("autonomous calibration", f"{res.details.get('samples')} poses, error {dt_mm:.2f} mm / "
-                f"{dr_deg:.3f} deg, 1-sigma {max(r['std_translation_mm']):.2f} mm, "
-                f"{time.monotonic() - t0:.0f} s", ok)  # fmt: skip
+    summary.add("autonomous calibration", f"{res.details.get('samples')} poses; {dt_mm:.2f} mm / "
+                f"{dr_deg:.3f} deg from the camera's true T_flange_cam, translation 1-sigma "
+                f"{max(r['std_translation_mm']):.2f} mm; {time.monotonic() - t0:.0f} s", ok)  # fmt: skip
     return ok
 
 
@@ -97,8 +98,8 @@ def detect(session: zenoh.Session, keys: Keys, center_true: np.ndarray, summary:
         return False
     det = next(d for d in reversed(dets.items) if d.objects and d.transform)
     err = 1e3 * float(np.linalg.norm(np.array(det.objects[0].center) - center_true))
-    summary.add("detect (live camera)", f"object on field {det.objects[0].field}, centre error {err:.1f} mm "
-                f"[{det.transform}]", err < 3.0)  # fmt: skip
+    summary.add("detect (live camera)", f"object on {field_text(det.objects[0])}, {err:.1f} mm from the true "
+                f"centre, seen through {transform_text(det.transform or '')}", err < 3.0)  # fmt: skip
     return err < 3.0
 
 
@@ -121,8 +122,9 @@ def pick_place(session: zenoh.Session, keys: Keys, center_true: np.ndarray, summ
     place_err = 1e3 * float(np.linalg.norm(np.array(reached["lower"]["position"]) - PLACE))
     grasped = any(p.name == "grasp" and "grasped True" in p.reason for p in res.phases)
     ok = grasped and grasp_err < 2.0 and place_err < 1.0
-    summary.add("pick and place", f"grasp {grasp_err:.2f} mm from the true centre + fingertip offset, grasped "
-                f"{grasped}, place reached within {place_err:.2f} mm, {res.duration_s:.0f} s", ok)  # fmt: skip
+    summary.add("pick and place", f"{'object held' if grasped else 'NOTHING held'}; grasp pose {grasp_err:.2f} mm "
+                f"from the true one (centre + fingertip offset), placed within {place_err:.2f} mm; "
+                f"{res.duration_s:.0f} s", ok)  # fmt: skip
 
 
 def run_cell(out: Path, robot: str, board: Path, summary: Summary) -> None:

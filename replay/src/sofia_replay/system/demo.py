@@ -10,15 +10,19 @@ the detection and dissipation plots, and ends with a summary.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import logging
 import sys
 import time
+from collections.abc import Iterator
 from pathlib import Path
 
 import zenoh
 from sofia_schemas import Keys, zenoh_config
 from sofia_schemas.keys import default_robot
 from sofia_schemas.launcher import Launcher, ServiceSpec
+from sofia_schemas.limits import ClipFilter
+from sofia_schemas.output import add_json_option, emit
 
 from . import steps
 from .bus import wait_until
@@ -49,8 +53,43 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     p.add_argument("--robot", default=None, help="robot id of every key (default $SOFIA_ROBOT or panda)")
     p.add_argument("--no-cell", action="store_true",
                    help="skip the closed loop in the simulated cell (franky-sim: calibrate, detect, pick and place)")  # fmt: skip
-    p.set_defaults(func=lambda a: run_demo(a.out, a.recordings, a.n_scenes, a.n_poses, a.board, a.robot,
-                                           not a.no_cell))  # fmt: skip
+    add_json_option(p, "the summary of every step, one object; the running commentary goes to stderr")
+    p.set_defaults(func=_main)
+
+
+def _main(args: argparse.Namespace) -> int:
+    summary = Summary()
+    t0 = time.monotonic()
+    with contextlib.redirect_stdout(sys.stderr) if args.json else contextlib.nullcontext():
+        code = run_demo(args.out, args.recordings, args.n_scenes, args.n_poses, args.board, args.robot,
+                        not args.no_cell, summary)  # fmt: skip
+    result = {"ok": code == 0, "seconds": round(time.monotonic() - t0, 1), "steps": summary.as_list()}
+    if args.json:
+        emit(args, result, "")
+    return code
+
+
+@contextlib.contextmanager
+def launcher_log(path: Path) -> Iterator[None]:
+    """The launcher's info lines (service started, stopped) go to ``path``, not to the terminal;
+    its warnings (a service died, restarts) go to both."""
+    logger = logging.getLogger("sofia.up")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fmt = logging.Formatter("%(asctime)s %(levelname)s %(name)s: %(message)s")
+    handlers: list[logging.Handler] = [logging.FileHandler(path), logging.StreamHandler()]
+    handlers[1].setLevel(logging.WARNING)
+    for h in handlers:
+        h.setFormatter(fmt)
+        h.addFilter(ClipFilter())
+        logger.addHandler(h)
+    propagate, logger.propagate = logger.propagate, False
+    try:
+        yield
+    finally:
+        logger.propagate = propagate
+        for h in handlers:
+            logger.removeHandler(h)
+            h.close()
 
 
 def make_recordings(recordings: Path, n_scenes: int, n_poses: int) -> tuple[Path, Path]:
@@ -70,11 +109,18 @@ def make_recordings(recordings: Path, n_scenes: int, n_poses: int) -> tuple[Path
 
 
 def run_demo(out: Path, recordings: Path, n_scenes: int = 12, n_poses: int = 12, board: Path = Path("config/board.yaml"),
-             robot: str | None = None, cell: bool = True) -> int:  # fmt: skip
-    robot = robot or default_robot()
-    keys = Keys(robot)
-    summary = Summary()
+             robot: str | None = None, cell: bool = True, summary: Summary | None = None) -> int:  # fmt: skip
+    """Every step of the demo; the launcher's log lines go to ``out/logs/launcher.log``."""
     out.mkdir(parents=True, exist_ok=True)
+    with launcher_log(out / "logs" / "launcher.log"):
+        return _run(
+            out, recordings, n_scenes, n_poses, board, robot or default_robot(), cell, summary or Summary()
+        )
+
+
+def _run(out: Path, recordings: Path, n_scenes: int, n_poses: int, board: Path, robot: str, cell: bool,
+         summary: Summary) -> int:  # fmt: skip
+    keys = Keys(robot)
     t0 = time.monotonic()
     scenes_mcap, calib_mcap = make_recordings(recordings, n_scenes, n_poses)
     specs = [

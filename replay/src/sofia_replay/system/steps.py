@@ -18,6 +18,7 @@ from sofia_schemas.transforms import rotation_angle
 from ..mcap_io import read_truth
 from .bus import Collector, wait_until
 from .summary import Summary, say
+from .wording import describe_detection, transform_text
 
 OBJECT_WIDTH_MM = 40.0  # the object between the emulated fingers
 
@@ -30,39 +31,31 @@ def sofia(*args: str, env_robot: str, timeout: float = 300.0) -> subprocess.Comp
     )
 
 
-def _match_error_mm(det: Detection, truth_frames: dict[int, dict]) -> tuple[str, float | None]:
-    frame = truth_frames.get(det.stamp_ns)
-    if frame is None:
-        return "no truth for this stamp", None
-    truths = [np.array(o["center"]) for o in frame["objects"]]
-    if not det.objects:
-        return ("empty board: no object" if not truths else "MISSED the object"), (
-            None if not truths else np.inf
-        )
-    o = det.objects[0]
-    text = f"{len(det.objects)} object(s); first on field {o.field} {'red' if o.allowed else 'NOT red'}"
-    if not truths:
-        return text + " (but the board is empty!)", np.inf
-    err = min(float(np.linalg.norm(np.array(o.center) - t)) for t in truths) * 1000
-    return (
-        f"{text}, centre ({o.center[0]:.3f}, {o.center[1]:.3f}, {o.center[2]:.3f}) m, error {err:.1f} mm",
-        err,
-    )
+def _truth_frames(scenes_mcap: Path) -> dict[int, dict]:
+    """The recording's true scenes by stamp (ns)."""
+    truth = read_truth(scenes_mcap) or {}
+    return {int(f["stamp_ns"]): f for f in truth.get("frames", [])}
 
 
 def _replay_and_check(session: zenoh.Session, keys: Keys, scenes_mcap: Path, robot: str, topics: list[str],
                       step: str, summary: Summary) -> bool:  # fmt: skip
     """Replay ``topics`` of the scene recording and print each detection against the truth."""
-    truth = read_truth(scenes_mcap) or {}
-    frames = {int(f["stamp_ns"]): f for f in truth.get("frames", [])}
+    frames = _truth_frames(scenes_mcap)
+    order = {stamp: i for i, stamp in enumerate(sorted(frames))}
+    t0_ns = min(frames, default=0)
     errors: list[float] = []
+    transforms: list[str] = []
 
     def show(det: Detection) -> None:
-        text, err = _match_error_mm(det, frames)
+        frame = frames.get(det.stamp_ns)
+        text, err = describe_detection(det, frame["objects"] if frame else None)
         if err is not None:
             errors.append(err)
-        used = f" [{det.transform}]" if det.transform else ""
-        say(f"  detection @ {det.stamp_ns}: {text}{used}")
+        if det.transform and det.transform not in transforms:  # said once, when it changes
+            transforms.append(det.transform)
+            say(f"  (camera clouds mapped into the base frame with {transform_text(det.transform)})")
+        scene = f"scene {order[det.stamp_ns] + 1}/{len(frames)}" if frame else "a cloud"
+        say(f"  {scene} at {(det.stamp_ns - t0_ns) / 1e9:.1f} s: {text}")
 
     dets = Collector(session, keys.detections, Detection, show)
     say(f"replaying {', '.join(topics)} of {scenes_mcap} ...")
@@ -85,7 +78,8 @@ def _replay_and_check(session: zenoh.Session, keys: Keys, scenes_mcap: Path, rob
     mean = float(np.mean(errors)) if errors else float("nan")
     summary.add(
         step,
-        f"{len(dets)} detections for {len(frames)} frames, centre error max {worst:.1f} mm, mean {mean:.1f} mm",
+        f"{len(dets)} detections for {len(frames)} clouds; centres {mean:.1f} mm from the truth on average, "
+        f"{worst:.1f} mm at most",
         ok,
     )
     if played.returncode != 0:
@@ -98,11 +92,15 @@ def detections(session: zenoh.Session, keys: Keys, scenes_mcap: Path, robot: str
     picks = Collector(session, keys.pick_target, PickTarget)
     _replay_and_check(session, keys, scenes_mcap, robot, [TOPIC_POINTS], "replay -> detector", summary)
     picks.close()
-    summary.add("pick targets", f"{len(picks)} published on {keys.pick_target}", len(picks) > 0)
+    frames = _truth_frames(scenes_mcap)
+    n_red = sum(any(o["allowed"] for o in f["objects"]) for f in frames.values())
+    summary.add("pick targets", f"{len(picks)} published on {keys.pick_target}, for {n_red} clouds with an "
+                "object on a red field", len(picks) > 0)  # fmt: skip
     try:
         det = ask(session, keys.detect, Detection)
-        first = det.objects[0].center if det.objects else None
-        summary.add("detect query (latest cloud)", f"status {det.status}, first object centre {first}", True)
+        frame = frames.get(det.stamp_ns)
+        text, err = describe_detection(det, frame["objects"] if frame else None)
+        summary.add("detect query (latest cloud)", text, err is None or err < 10)
     except QueryError as e:
         summary.add("detect query (latest cloud)", str(e), False)
 
@@ -133,7 +131,7 @@ def calibration(session: zenoh.Session, keys: Keys, calib_mcap: Path, robot: str
     say(
         f"  translation {np.round(res.translation, 4).tolist()} m, quaternion x y z w {np.round(res.quaternion_xyzw, 4).tolist()}"
     )
-    say(f"  truth       {np.round(T_true[:3, 3], 4).tolist()} m")
+    say(f"  true translation {np.round(T_true[:3, 3], 4).tolist()} m (the recording's ground truth)")
     say(f"  {res.camera_correction.describe()}")
     say(
         f"  spread per axis {np.round(res.spread_mm, 2).tolist()} mm ({'passes' if res.passes else 'fails'} the 1 cm criterion)"
@@ -142,7 +140,9 @@ def calibration(session: zenoh.Session, keys: Keys, calib_mcap: Path, robot: str
         say(f"  ROS 1: {res.ros1_static_transform}")
     ok = dt_mm < 3.0 and dr_deg < 0.5 and res.passes
     summary.add(
-        "calibration vs truth", f"{res.n_samples} samples, error {dt_mm:.2f} mm / {dr_deg:.3f} deg", ok
+        "calibration vs truth",
+        f"{res.n_samples} samples; {dt_mm:.2f} mm / {dr_deg:.3f} deg from the true T_flange_cam",
+        ok,
     )
     return ok
 
@@ -164,15 +164,14 @@ def gripper(session: zenoh.Session, keys: Keys, summary: Summary) -> None:
             res = ask(
                 session, keys.gripper_command, GripperResult, cmd.model_dump_json(), timeout=cmd.timeout_s + 5
             )
-            extra = f", grasped {res.grasped}" if res.grasped is not None else ""
-            opening = f"{res.opening_mm:.1f} mm" if res.opening_mm is not None else "?"
+            opening = f"{res.opening_mm:.1f} mm" if res.opening_mm is not None else "unknown"
             ok = res.ok
+            text = f"{res.reason}, fingers {opening} apart after {res.duration_s:.2f} s"
             if cmd.action == "grasp":  # the emulated object must stop the fingers at its width
                 ok = ok and bool(res.grasped) and abs((res.opening_mm or 0.0) - OBJECT_WIDTH_MM) < 3.0
-                extra += f" (object {OBJECT_WIDTH_MM:.0f} mm)"
-            summary.add(
-                f"gripper {cmd.action}", f"{res.reason}, opening {opening}{extra}, {res.duration_s:.2f} s", ok
-            )
+                held = "object held" if res.grasped else "NOTHING held"
+                text = f"{held}: fingers stopped at {opening} on the {OBJECT_WIDTH_MM:.0f} mm object, {res.duration_s:.2f} s"
+            summary.add(f"gripper {cmd.action}", text, ok)
         except QueryError as e:
             summary.add(f"gripper {cmd.action}", str(e), False)
 

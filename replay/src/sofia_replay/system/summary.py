@@ -17,6 +17,10 @@ class Summary:
         self.rows.append((step, result, ok))
         say(f"{'ok ' if ok else 'FAIL'} {step}: {result}")
 
+    def as_list(self) -> list[dict[str, object]]:
+        """The steps for machines: ``[{"step", "result", "ok"}, ...]``."""
+        return [{"step": s, "result": r, "ok": ok} for s, r, ok in self.rows]
+
     @property
     def ok(self) -> bool:
         return all(ok for _, _, ok in self.rows)

@@ -6,6 +6,7 @@ import argparse
 import os
 
 from ..keys import default_robot
+from ..output import add_json_option, emit
 from ..zenoh_config import ZenohOptions, add_zenoh_args
 
 
@@ -13,7 +14,7 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     p = sub.add_parser("ros2", help="SofIA on the ROS 2 graph (rmw_zenoh): topics, services, tf")
     s = p.add_subparsers(dest="ros2_cmd", required=True)
     serve = s.add_parser("serve", help="offer SofIA's topics and services to ROS 2 nodes using rmw_zenoh")
-    serve.add_argument("--robot", default=None)
+    serve.add_argument("--robot", default=None, help="robot id (default $SOFIA_ROBOT or panda)")
     serve.add_argument("--domain", type=int, default=None, help="ROS domain id (default $ROS_DOMAIN_ID or 0)")
     serve.add_argument(
         "--camera-frame",
@@ -26,11 +27,16 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
         help="ROS 2 PointCloud2 topic taken in as camera-frame clouds ('' for none)",
     )
     serve.add_argument("--no-tf-input", action="store_true", help="do not take the flange pose from /tf")
-    serve.add_argument("--base-frame", default="panda_link0")
-    serve.add_argument("--flange-frame", default="panda_link8")
+    serve.add_argument(
+        "--base-frame", default="panda_link0", help="robot base frame on /tf (default panda_link0)"
+    )
+    serve.add_argument(
+        "--flange-frame", default="panda_link8", help="flange frame on /tf (default panda_link8)"
+    )
     add_zenoh_args(serve)
     serve.set_defaults(func=_serve)
     types = s.add_parser("types", help="print the shipped ROS 2 types with their RIHS01 type hashes")
+    add_json_option(types, "one object per type and line")
     types.set_defaults(func=_types)
 
 
@@ -46,11 +52,12 @@ def _serve(args: argparse.Namespace) -> int:
     return main(ServiceConfig(bridge, ZenohOptions.from_args(args)))
 
 
-def _types(_args: argparse.Namespace) -> int:
+def _types(args: argparse.Namespace) -> int:
     from .typesupport import dds_type_name, shipped_types, type_hash
 
     for name in shipped_types():
-        print(f"{name:40s} {dds_type_name(name):50s} {type_hash(name)}")
+        dds, rihs = dds_type_name(name), type_hash(name)
+        emit(args, {"type": name, "dds_type": dds, "type_hash": rihs}, f"{name:40s} {dds:50s} {rihs}")
     return 0
 
 

@@ -7,6 +7,7 @@ import json
 import sys
 
 import numpy as np
+from sofia_schemas.output import add_json_option
 from sofia_schemas.transforms import make_transform
 from sofia_schemas.zenoh_config import add_zenoh_args
 
@@ -45,7 +46,7 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     )  # fmt: skip
     add_frame_args(p)
     p.add_argument("--keep-outliers", action="store_true", help="report the fit with every sample")
-    p.add_argument("--json", action="store_true", help="print one JSON object")
+    add_json_option(p, "the CalibrationResult, one object", text="YAML")
     p.add_argument("--yaml", metavar="OUT", help="also write the result as YAML")
     p.add_argument("--plot", metavar="OUT.png", help="write the dissipation plot")
     p.set_defaults(func=run_calibrate)

@@ -3,11 +3,11 @@
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 
 from sofia_schemas.keys import default_robot
+from sofia_schemas.output import add_json_option, emit, fields_text
 from sofia_schemas.zenoh_config import ZenohOptions, add_zenoh_args
 
 from .errors import CameraError
@@ -63,9 +63,11 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
 
     s = cs.add_parser("serve", help="publish the camera's organized clouds and camera info")
     s.add_argument("--serial", help="camera serial number (default: the first connected)")
-    s.add_argument("--width", type=int, default=640, help="640, 848 or 1280 (default 640)")
-    s.add_argument("--height", type=int, default=480, help="480 or 720 (default 480)")
-    s.add_argument("--fps", type=int, default=30, help="6, 15 or 30 (default 30)")
+    s.add_argument(
+        "--width", type=int, default=640, help="frame width, pixels: 640, 848 or 1280 (default 640)"
+    )
+    s.add_argument("--height", type=int, default=480, help="frame height, pixels: 480 or 720 (default 480)")
+    s.add_argument("--fps", type=int, default=30, help="frame rate, Hz: 6, 15 or 30 (default 30)")
     s.add_argument(
         "--preset", help="visual preset: default, high_accuracy, high_density, medium_density, hand"
     )
@@ -99,20 +101,22 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     s.set_defaults(func=_serve)
 
     ls = cs.add_parser("list", help="connected cameras: name, serial, firmware, USB type")
-    ls.add_argument("--json", action="store_true", help="one JSON object per camera and line")
+    add_json_option(ls, "one object per camera and line")
     ls.set_defaults(func=_list)
 
     r = cs.add_parser(
         "record", help="record camera clouds, camera info and flange poses from the bus to MCAP"
     )
-    r.add_argument("out", type=Path, metavar="OUT.mcap")
-    r.add_argument("--seconds", type=float, required=True, help="how long to record")
+    r.add_argument("out", type=Path, metavar="OUT.mcap", help="MCAP file to write")
+    r.add_argument("--seconds", type=float, required=True, help="how long to record, seconds (required)")
     r.add_argument("--robot", default=None, help="robot id (default $SOFIA_ROBOT or panda)")
+    add_json_option(r, "the file and the message counts, one object")
     add_zenoh_args(r)
     r.set_defaults(func=_record)
 
-    t = cs.add_parser("sim-truth", help="print the ground truth of a simulated scene as JSON")
+    t = cs.add_parser("sim-truth", help="print the ground truth of a simulated scene")
     _add_sim_args(t)
+    add_json_option(t, "the truth, one object")
     t.set_defaults(func=_truth)
 
 
@@ -153,8 +157,8 @@ def _list(args: argparse.Namespace) -> int:
     cameras = list_devices()
     if args.json:
         for cam in cameras:
-            print(json.dumps(cam))
-        return 0
+            emit(args, cam, "")
+        return 0 if cameras else 1
     if not cameras:
         print("no RealSense camera connected (check the USB 3 cable, `lsusb | grep 8086`, the udev rules)")
         return 1
@@ -169,7 +173,8 @@ def _record(args: argparse.Namespace) -> int:
     from .record import record
 
     counts = record(args.out, args.seconds, args.robot or default_robot(), ZenohOptions.from_args(args))
-    print(f"{args.out}: " + ", ".join(f"{n} {what}" for what, n in counts.items()))
+    text = f"{args.out}: " + ", ".join(f"{n} {what}" for what, n in counts.items())
+    emit(args, {"file": args.out, "counts": counts}, text)
     return 0 if counts.get("clouds") else 1
 
 
@@ -181,5 +186,6 @@ def _truth(args: argparse.Namespace) -> int:
     except CameraError as e:
         print(f"sofia camera sim-truth: {e}", file=sys.stderr)
         return 2
-    print(json.dumps(world.truth()))
+    truth = world.truth()
+    emit(args, truth, lambda: fields_text(truth))
     return 0

@@ -12,6 +12,7 @@ from pathlib import Path
 from sofia_schemas import Board
 from sofia_schemas.keys import default_robot
 from sofia_schemas.messages import Detection
+from sofia_schemas.output import add_json_option
 from sofia_schemas.zenoh_config import ZenohOptions, add_zenoh_args
 
 from .detect import detect
@@ -27,7 +28,7 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     d = sub.add_parser("detect", help="detect the objects on the board in cloud files")
     d.add_argument("files", nargs="+", type=Path, metavar="FILE", help=".mcap, .pcd, .ply or .npy")
     d.add_argument("--board", type=Path, help="board YAML/JSON (default: the package's board)")
-    d.add_argument("--json", action="store_true", help="one JSON object per cloud and line")
+    add_json_option(d, "one object per cloud and line")
     d.add_argument("--plot", type=Path, metavar="OUT.png", help="draw the board from above")
     d.add_argument(
         "--transform", type=Path, metavar="FILE",
@@ -48,6 +49,11 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
         help="clouds kept while busy (default 1: only the latest, older ones are dropped and counted; "
         "N > 1: a stall of up to N-1 frames loses nothing, at most N-1 frames late)",
     )  # fmt: skip
+    serve.add_argument(
+        "--pose-wait", type=float, default=0.3, metavar="S",
+        help="seconds a camera-frame cloud waits for the flange pose of its stamp, queries being "
+        "served meanwhile (default 0.3)",
+    )  # fmt: skip
     add_zenoh_args(serve)
     serve.set_defaults(func=_serve)
 
@@ -61,7 +67,7 @@ def _serve(args: argparse.Namespace) -> int:
 
     config = ServiceConfig(
         board=_board(args.board), robot=args.robot or default_robot(), zenoh=ZenohOptions.from_args(args),
-        transform_file=args.transform, backlog=args.backlog,
+        transform_file=args.transform, backlog=args.backlog, pose_wait_s=args.pose_wait,
     )  # fmt: skip
     return main(config)
 

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 import threading
 from pathlib import Path
@@ -11,7 +10,8 @@ from typing import Any
 
 from sofia_schemas.client import query
 from sofia_schemas.keys import ENCODING_JSON, Keys, default_robot
-from sofia_schemas.messages import GripperCommand
+from sofia_schemas.messages import GripperCommand, GripperResult
+from sofia_schemas.output import add_json_option, emit
 from sofia_schemas.service import StopFlag
 from sofia_schemas.zenoh_config import ZenohOptions, add_zenoh_args, zenoh_config
 
@@ -61,7 +61,11 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     )
     e.add_argument("--object-width", type=float, metavar="MM", help="object between the fingers, mm")
     e.add_argument(
-        "--protocol", type=float, choices=(1.0, 2.0), default=2.0, help="Dynamixel protocol (default 2.0)"
+        "--protocol",
+        type=float,
+        choices=(1.0, 2.0),
+        default=2.0,
+        help="Dynamixel protocol version, 1.0 or 2.0 (default 2.0)",
     )
     e.add_argument("--baud", type=int, default=57600, metavar="BPS", help="baud rate, bit/s (default 57600)")
     e.add_argument("--id", type=int, dest="dxl_id", default=1, help="Dynamixel id, 0-252 (default 1)")
@@ -96,6 +100,7 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
         add_zenoh_args(a)
         a.add_argument("--robot", default=None, help="robot id (default $SOFIA_ROBOT or panda)")
         a.add_argument("--timeout", type=float, default=10.0, help="command timeout, s (default 10)")
+        add_json_option(a, "the GripperResult, one object")
         if action == "grasp":
             a.add_argument("--force", type=float, metavar="N", help="grasp force limit, newtons")
             a.add_argument("--current", type=float, metavar="MA", help="grasp current limit, mA")
@@ -107,7 +112,7 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
                 "--ticks", type=int, help="motor position instead of an opening, ticks (4096/turn)"
             )
         if action == "torque":
-            a.add_argument("enable", choices=("on", "off"))
+            a.add_argument("enable", choices=("on", "off"), help="on: torque on; off: the motor turns freely")
         a.set_defaults(func=_command, action=action)
 
 
@@ -178,12 +183,35 @@ def _command(args: argparse.Namespace) -> int:
         )
     if not replies:
         print(f"sofia gripper {args.action}: no gripper service answered on {key}", file=sys.stderr)
-        return 3
+        return 1
     reply = replies[0]
     if reply.ok is not None:
-        result = json.loads(reply.ok.payload.to_bytes())
-        print(json.dumps(result))
-        return 0 if result.get("ok") else 1
+        result = GripperResult.model_validate_json(reply.ok.payload.to_bytes())
+        emit(args, result, lambda: describe_result(result))
+        return 0 if result.ok else 1
     assert reply.err is not None
     print(reply.err.payload.to_bytes().decode(errors="replace"), file=sys.stderr)
     return 1
+
+
+def describe_result(result: GripperResult) -> str:
+    """One line for people, e.g. ``grasp: stalled, opening 39.1 mm, grasped, 0.36 s``."""
+    parts = [f"{result.action}: {result.reason}" + ("" if result.ok else " (failed)")]
+    if result.opening_mm is not None:
+        parts.append(f"opening {result.opening_mm:.1f} mm")
+    if result.grasped is not None:
+        parts.append("grasped" if result.grasped else "nothing grasped")
+    parts.append(f"{result.duration_s:.2f} s")
+    text = ", ".join(parts)
+    s = result.state
+    if s is not None and result.action == "state":
+        values = (("connected", s.connected), ("status", s.status), ("torque", "on" if s.torque_enabled else "off"),
+                  ("current", _unit(s.current_ma, "mA")), ("force", _unit(s.force_n, "N")),
+                  ("temperature", _unit(s.temperature_c, "C")), ("voltage", _unit(s.voltage_v, "V")),
+                  ("hardware errors", ", ".join(s.hardware_error) or "none"), ("error", s.error))  # fmt: skip
+        text += "".join(f"\n  {k}: {v}" for k, v in values if v is not None)
+    return text
+
+
+def _unit(value: float | None, unit: str) -> str | None:
+    return None if value is None else f"{value:g} {unit}"

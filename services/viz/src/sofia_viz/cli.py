@@ -7,6 +7,7 @@ from pathlib import Path
 
 from sofia_schemas import Board
 from sofia_schemas.keys import default_robot
+from sofia_schemas.output import add_json_option, emit
 from sofia_schemas.zenoh_config import ZenohOptions, add_zenoh_args
 
 LAYOUT = Path(__file__).with_name("data") / "layout.json"
@@ -19,14 +20,23 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     serve.add_argument(
         "--host", default="127.0.0.1", help="address to listen on (0.0.0.0 for other machines)"
     )
-    serve.add_argument("--port", type=int, default=8765, help="WebSocket port (0: any free port)")
+    serve.add_argument(
+        "--port", type=int, default=8765, help="WebSocket TCP port number (0: any free port; default 8765)"
+    )
     serve.add_argument("--board", type=Path, default=None, help="board YAML/JSON (default: the package's)")
-    serve.add_argument("--camera-frame", default="camera_color_optical_frame")
-    serve.add_argument("--robot", default=None)
+    serve.add_argument("--camera-frame", default="camera_color_optical_frame",
+                       help="frame_id of the camera clouds (default camera_color_optical_frame)")  # fmt: skip
+    serve.add_argument("--robot", default=None, help="robot id (default $SOFIA_ROBOT or panda)")
     add_zenoh_args(serve)
     serve.set_defaults(func=_serve)
     layout = s.add_parser("layout", help="print the path of the saved Foxglove layout")
-    layout.set_defaults(func=lambda _a: print(LAYOUT) or 0)
+    add_json_option(layout, "the path, one object")
+    layout.set_defaults(func=_layout)
+
+
+def _layout(args: argparse.Namespace) -> int:
+    emit(args, {"layout": LAYOUT}, str(LAYOUT))
+    return 0
 
 
 def _serve(args: argparse.Namespace) -> int:

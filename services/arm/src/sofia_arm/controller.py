@@ -17,13 +17,13 @@ import logging
 import threading
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
 
 import franky
 import numpy as np
 from sofia_schemas.kinematics import joint_limits, panda_fk, rotation_to_quat_xyzw
 from sofia_schemas.messages import ArmCommandName, ArmResult, ArmStatus
 
+from .command_token import Token
 from .config import ArmConfig
 from .errors import NotReady
 from .robot import RobotLink
@@ -36,29 +36,9 @@ APPROACH_RAD = 0.02  # corrections come from this far below the command, on ever
 SETTLE_S = 0.3  # after a motion, wait this much of the robot's clock (the joints' servo settles) ...
 SETTLE_MEAN_S = 0.2  # ... then average the joint positions over this much
 FAULT_MODES = {"Reflex", "UserStopped", "AutomaticErrorRecovery", "Other"}
-
-
-@dataclass
-class Token:
-    """The life of one command: cancelled once, with a status and a reason."""
-
-    command: ArmCommandName
-    timeout_s: float
-    started: float = field(default_factory=time.monotonic)
-    status: ArmStatus | None = None
-    reason: str = ""
-    _lock: threading.Lock = field(default_factory=threading.Lock)
-
-    def cancel(self, status: ArmStatus, reason: str) -> None:
-        with self._lock:
-            if self.status is None:
-                self.status, self.reason = status, reason
-
-    def ended(self) -> bool:
-        """True once cancelled (checks the deadline too)."""
-        if self.status is None and time.monotonic() - self.started > self.timeout_s:
-            self.cancel("timeout", f"{self.command} timed out after {self.timeout_s:g} s")
-        return self.status is not None
+# A motion during which no new robot state arrives for this long, the link being up, is stuck
+# (seen in the simulated cell after a host stall; a dead link is libfranka's UDP time-out instead)
+STATE_SILENCE_S = 5.0
 
 
 class Controller:
@@ -156,9 +136,14 @@ class Controller:
                 log.error("robot.stop failed: %s", e2)
 
     def _run(self, token: Token, robot: franky.Robot, motion: object) -> tuple[ArmStatus, str] | None:
-        """Run ``motion`` until it ends; None when it finished, else (status, reason)."""
+        """Run ``motion`` until it ends; None when it finished, else (status, reason).
+
+        A motion during which no new robot state arrives for ``STATE_SILENCE_S`` is stopped; when
+        the robot then sends states again, the motion counts as ended (the caller measures where
+        the arm is), else the connection is lost."""
         try:
             robot.move(motion, asynchronous=True)  # type: ignore[call-overload]
+            heard = (self._robot_ns(), time.monotonic())
             while True:
                 if token.ended():
                     self.halt(robot)
@@ -166,12 +151,40 @@ class Controller:
                     return token.status or "failed", token.reason
                 if robot.join_motion(timeout=POLL_S):
                     return None
+                now_ns = self._robot_ns()
+                if now_ns != heard[0]:
+                    heard = (now_ns, time.monotonic())
+                elif time.monotonic() - heard[1] > STATE_SILENCE_S:
+                    return self._unstick(robot, token)
         except Exception as e:  # franky's ControlException, NetworkException, ...
             reason = f"{type(e).__name__}: {e}"
             if isinstance(e, franky.NetworkException):
                 self.link.lost(reason)
             log.warning("%s failed: %s", token.command, reason)
             return "failed", reason
+
+    def _robot_ns(self) -> int:
+        latest = self.link.latest
+        return latest.robot_time_ns if latest is not None else -1
+
+    def _unstick(self, robot: franky.Robot, token: Token) -> tuple[ArmStatus, str] | None:
+        """Stop a motion that stopped receiving robot states; None when states come back."""
+        log.warning(
+            "%s: no robot state for %g s during a motion: stopping it", token.command, STATE_SILENCE_S
+        )
+        try:
+            robot.stop()
+        except Exception as e:
+            log.warning("stopping the stuck motion: %s", e)
+        self._join_quietly(robot)
+        if self.link.wait_sample(time.time_ns(), HALT_TIMEOUT_S) is None:
+            reason = (
+                f"the robot sent no state for {STATE_SILENCE_S:g} s during a motion, nor after stopping it"
+            )
+            self.link.lost(reason)
+            return "failed", reason
+        log.info("%s: the robot answers again; measuring where the arm is", token.command)
+        return None
 
     def _join_quietly(self, robot: franky.Robot) -> None:
         try:

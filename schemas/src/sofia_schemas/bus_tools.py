@@ -14,7 +14,7 @@ import zenoh
 from .client import QueryError, ask
 from .client import query as query_replies
 from .decode import describe
-from .keys import Keys, default_robot
+from .keys import Keys, add_robot_arg, default_robot
 from .messages import ServiceStatus
 from .output import add_json_option, emit
 from .service import StopFlag
@@ -61,7 +61,7 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
 
     p = sub.add_parser("health", help="exit 0 when SERVICE answers its status and is healthy")
     p.add_argument("service", help="detector, calibrator, gripper, replay")
-    p.add_argument("--robot", default=None, help="robot id (default $SOFIA_ROBOT or panda)")
+    add_robot_arg(p)
     p.add_argument(
         "--timeout", type=float, default=5.0, metavar="S", help="seconds to wait for the status (default 5)"
     )

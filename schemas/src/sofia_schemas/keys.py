@@ -34,6 +34,7 @@ sofia/{robot}/replay/status        JSON ServiceStatus                           
 
 from __future__ import annotations
 
+import argparse
 import os
 import re
 from dataclasses import dataclass
@@ -63,6 +64,11 @@ ENCODING_JSON = "application/json"
 def default_robot() -> str:
     """The robot id from ``$SOFIA_ROBOT``, else ``panda``."""
     return os.environ.get(ROBOT_ENV, DEFAULT_ROBOT)
+
+
+def add_robot_arg(parser: argparse.ArgumentParser) -> None:
+    """``--robot ID`` (None when not given: the caller falls back to :func:`default_robot`)."""
+    parser.add_argument("--robot", default=None, help=f"robot id (default ${ROBOT_ENV} or {DEFAULT_ROBOT})")
 
 
 @dataclass(frozen=True)

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import os
 
-from ..keys import default_robot
+from ..keys import add_robot_arg, default_robot
 from ..output import add_json_option, emit
 from ..zenoh_config import ZenohOptions, add_zenoh_args
 
@@ -14,7 +14,7 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     p = sub.add_parser("ros2", help="SofIA on the ROS 2 graph (rmw_zenoh): topics, services, tf")
     s = p.add_subparsers(dest="ros2_cmd", required=True)
     serve = s.add_parser("serve", help="offer SofIA's topics and services to ROS 2 nodes using rmw_zenoh")
-    serve.add_argument("--robot", default=None, help="robot id (default $SOFIA_ROBOT or panda)")
+    add_robot_arg(serve)
     serve.add_argument("--domain", type=int, default=None, help="ROS domain id (default $ROS_DOMAIN_ID or 0)")
     serve.add_argument(
         "--camera-frame",

@@ -10,7 +10,7 @@ import argparse
 import sys
 from typing import Any
 
-from sofia_schemas.keys import Keys, default_robot
+from sofia_schemas.keys import Keys, add_robot_arg, default_robot
 from sofia_schemas.output import add_json_option, emit
 from sofia_schemas.zenoh_config import ZenohOptions, add_zenoh_args, zenoh_config
 
@@ -33,7 +33,7 @@ def register_auto(calibrate_parser: argparse.ArgumentParser) -> None:
     a.add_argument("--speed", type=float, default=0.2, help="relative speed (capped by the arm's limits)")
     a.add_argument("--timeout", type=float, default=600.0, help="seconds for the whole calibration")
     add_json_option(a, "the final ArmResult, one object; the poses as they are taken go to stderr")
-    a.add_argument("--robot", default=None, help="robot id (default $SOFIA_ROBOT or panda)")
+    add_robot_arg(a)
     add_zenoh_args(a)
     a.set_defaults(func=run_auto)
 

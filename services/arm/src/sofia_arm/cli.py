@@ -8,7 +8,7 @@ from pathlib import Path
 from typing import Any
 
 from sofia_schemas.client import query
-from sofia_schemas.keys import ENCODING_JSON, Keys, default_robot
+from sofia_schemas.keys import ENCODING_JSON, Keys, add_robot_arg, default_robot
 from sofia_schemas.messages import ArmCommand, ArmResult, ArmState
 from sofia_schemas.output import add_json_option, emit
 from sofia_schemas.zenoh_config import ZenohOptions, add_zenoh_args, zenoh_config
@@ -38,7 +38,7 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     def command(name: str, help: str) -> argparse.ArgumentParser:
         a = gs.add_parser(name, help=help)
         add_zenoh_args(a)
-        a.add_argument("--robot", default=None, help="robot id (default $SOFIA_ROBOT or panda)")
+        add_robot_arg(a)
         a.add_argument("--timeout", type=float, default=60.0, help="command timeout, s")
         add_json_option(a, "the ArmState, one object" if name == "state" else "the ArmResult, one object")
         if name not in ("state", "stop", "recover"):

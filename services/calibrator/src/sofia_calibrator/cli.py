@@ -7,6 +7,7 @@ import json
 import sys
 
 import numpy as np
+from sofia_schemas.keys import add_robot_arg
 from sofia_schemas.output import add_json_option
 from sofia_schemas.transforms import make_transform
 from sofia_schemas.zenoh_config import add_zenoh_args
@@ -64,7 +65,7 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     s.add_argument("--from-clouds", action="store_true", help="also extract the blob from camera clouds")
     s.add_argument("--tolerance-ms", type=float, default=50.0, help="pose/blob stamp gap, ms")
     s.add_argument("--min-samples", type=int, default=3, help="samples before the first solve")
-    s.add_argument("--robot", default=None, help="robot id (default $SOFIA_ROBOT or panda)")
+    add_robot_arg(s)
     add_frame_args(s)
     add_zenoh_args(s)
     s.set_defaults(func=run_service)

@@ -6,7 +6,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from sofia_schemas.keys import default_robot
+from sofia_schemas.keys import add_robot_arg, default_robot
 from sofia_schemas.output import add_json_option, emit, fields_text
 from sofia_schemas.zenoh_config import ZenohOptions, add_zenoh_args
 
@@ -92,7 +92,7 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
         default="auto",
         help="apply the calibration result's depth correction (auto) or never (off)",
     )
-    s.add_argument("--robot", default=None, help="robot id (default $SOFIA_ROBOT or panda)")
+    add_robot_arg(s)
     s.add_argument(
         "--sim", action="store_true", help="frames from the simulated D435 at the live flange pose"
     )
@@ -109,7 +109,7 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     )
     r.add_argument("out", type=Path, metavar="OUT.mcap", help="MCAP file to write")
     r.add_argument("--seconds", type=float, required=True, help="how long to record, seconds (required)")
-    r.add_argument("--robot", default=None, help="robot id (default $SOFIA_ROBOT or panda)")
+    add_robot_arg(r)
     add_json_option(r, "the file and the message counts, one object")
     add_zenoh_args(r)
     r.set_defaults(func=_record)

@@ -10,7 +10,7 @@ import sys
 from pathlib import Path
 
 from sofia_schemas import Board
-from sofia_schemas.keys import default_robot
+from sofia_schemas.keys import add_robot_arg, default_robot
 from sofia_schemas.messages import Detection
 from sofia_schemas.output import add_json_option
 from sofia_schemas.zenoh_config import ZenohOptions, add_zenoh_args
@@ -43,7 +43,7 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     serve.add_argument(
         "--transform", type=Path, metavar="FILE", help="T_flange_cam YAML/JSON (else the calibrator's)"
     )
-    serve.add_argument("--robot", default=None, help="robot id (default $SOFIA_ROBOT or panda)")
+    add_robot_arg(serve)
     serve.add_argument(
         "--backlog", type=int, default=1, metavar="N",
         help="clouds kept while busy (default 1: only the latest, older ones are dropped and counted; "

@@ -9,7 +9,7 @@ from pathlib import Path
 from typing import Any
 
 from sofia_schemas.client import query
-from sofia_schemas.keys import ENCODING_JSON, Keys, default_robot
+from sofia_schemas.keys import ENCODING_JSON, Keys, add_robot_arg, default_robot
 from sofia_schemas.messages import GripperCommand, GripperResult
 from sofia_schemas.output import add_json_option, emit
 from sofia_schemas.service import StopFlag
@@ -47,7 +47,7 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     s = gs.add_parser("serve", help="run the gripper service")
     _add_servo_args(s)
     add_zenoh_args(s)
-    s.add_argument("--robot", default=None, help="robot id (default $SOFIA_ROBOT or panda)")
+    add_robot_arg(s)
     s.add_argument("--emulate", action="store_true", help="run against an emulated MX-64 (its own process)")
     s.add_argument(
         "--object-width", type=float, metavar="MM", help="width of the emulated object, mm (--emulate)"
@@ -98,7 +98,7 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     for action in ACTIONS:
         a = gs.add_parser(action, help=f"send a {action} command to the gripper service")
         add_zenoh_args(a)
-        a.add_argument("--robot", default=None, help="robot id (default $SOFIA_ROBOT or panda)")
+        add_robot_arg(a)
         a.add_argument("--timeout", type=float, default=10.0, help="command timeout, s (default 10)")
         add_json_option(a, "the GripperResult, one object")
         if action == "grasp":

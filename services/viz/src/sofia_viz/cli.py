@@ -6,7 +6,7 @@ import argparse
 from pathlib import Path
 
 from sofia_schemas import Board
-from sofia_schemas.keys import default_robot
+from sofia_schemas.keys import add_robot_arg, default_robot
 from sofia_schemas.output import add_json_option, emit
 from sofia_schemas.zenoh_config import ZenohOptions, add_zenoh_args
 
@@ -26,7 +26,7 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     serve.add_argument("--board", type=Path, default=None, help="board YAML/JSON (default: the package's)")
     serve.add_argument("--camera-frame", default="camera_color_optical_frame",
                        help="frame_id of the camera clouds (default camera_color_optical_frame)")  # fmt: skip
-    serve.add_argument("--robot", default=None, help="robot id (default $SOFIA_ROBOT or panda)")
+    add_robot_arg(serve)
     add_zenoh_args(serve)
     serve.set_defaults(func=_serve)
     layout = s.add_parser("layout", help="print the path of the saved Foxglove layout")

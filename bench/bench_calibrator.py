@@ -18,8 +18,8 @@ import numpy as np
 from scipy.optimize import fmin
 from scipy.spatial.transform import Rotation
 from sofia_calibrator import calibrate, dissipation, map_to_base, read_lab, solve
+from sofia_calibrator.diagnostics import error6
 from sofia_calibrator.simulate import make_problem
-from sofia_calibrator.so3 import log
 from sofia_calibrator.solver import refine
 from sofia_schemas.transforms import rotation_angle
 
@@ -101,10 +101,7 @@ def coverage(problems: int, rng: np.random.Generator, noise: str) -> dict[str, f
         false_out += bool(cal.outliers)
         n_scaled += depth_scale != 1.0
         scaled += (cal.correction.model != "rigid") == (depth_scale != 1.0)
-        e = np.r_[
-            cal.translation - pr.T_flange_cam[:3, 3],
-            log(cal.T_flange_cam[:3, :3] @ pr.T_flange_cam[:3, :3].T),
-        ]
+        e = error6(cal.T_flange_cam, pr.T_flange_cam)
         sd = np.sqrt(np.diag(cal.covariance6))
         inside1.append(np.abs(e) <= sd)
         inside2.append(np.abs(e) <= 2 * sd)

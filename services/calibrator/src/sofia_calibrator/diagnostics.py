@@ -63,6 +63,12 @@ def covariance6(R_flange_cam: np.ndarray, cov: np.ndarray) -> np.ndarray:
     return np.asarray(A @ cov @ A.T)
 
 
+def error6(T_est: np.ndarray, T_true: np.ndarray) -> np.ndarray:
+    """(6,) error of an estimated T_flange_cam (4, 4) against the true one, in the coordinates of
+    :func:`covariance6`: translation (m, flange frame), then rotation (rad, about the flange axes)."""
+    return np.r_[T_est[:3, 3] - T_true[:3, 3], so3.log(T_est[:3, :3] @ T_true[:3, :3].T)]
+
+
 def outlier_ratio(whitened: np.ndarray, reference: np.ndarray, alpha: float = OUTLIER_ALPHA) -> np.ndarray:
     """How far (n,) whitened residual norms are above the clear-outlier threshold (> 1: outlier).
 

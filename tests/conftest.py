@@ -84,6 +84,16 @@ class Proc:
 
 
 @pytest.fixture
+def flange_cam_file(tmp_path: Path) -> Path:
+    """The synthetic recordings' true T_flange_cam as a ``--transform`` JSON file."""
+    from sofia_replay.synth import DEFAULT_T_FLANGE_CAM
+
+    path = tmp_path / "T_flange_cam.json"
+    path.write_text(json.dumps({"matrix": DEFAULT_T_FLANGE_CAM.tolist()}))
+    return path
+
+
+@pytest.fixture
 def sofia_proc(tmp_path: Path, robot_id: str) -> Iterator[Callable[..., Proc]]:
     """Start ``sofia ARGS...`` as a separate process with ``SOFIA_ROBOT`` set to this test's id."""
     procs: list[Proc] = []

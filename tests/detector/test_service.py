@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 import queue
 import time
 from pathlib import Path
@@ -110,11 +109,10 @@ def test_detect_queryable(sofia_proc, robot_id: str, session, scenes) -> None:  
 
 
 def test_camera_frame_cloud_with_flange_pose_and_transform_file(
-    sofia_proc, robot_id: str, session, scenes, tmp_path: Path
+    sofia_proc, robot_id: str, session, scenes, flange_cam_file: Path
 ) -> None:  # type: ignore[no-untyped-def]
     keys = Keys(robot_id)
-    tf = tmp_path / "T_flange_cam.json"
-    tf.write_text(json.dumps({"matrix": DEFAULT_T_FLANGE_CAM.tolist()}))
+    tf = flange_cam_file
     proc = sofia_proc("detector", "serve", "--transform", str(tf))
     proc.wait_for_log("detector ready")
     dets, _sub = _collect(session, keys.detections)

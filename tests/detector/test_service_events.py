@@ -4,14 +4,12 @@ clouds: ``test_service.test_burst_keeps_only_the_latest_cloud``)."""
 
 from __future__ import annotations
 
-import json
 import os
 import subprocess
 import time
 from pathlib import Path
 
 import numpy as np
-from sofia_replay.synth import DEFAULT_T_FLANGE_CAM
 from sofia_schemas import pointcloud
 from sofia_schemas.keys import ENCODING_CDR_POINTCLOUD2, Keys
 from sofia_schemas.messages import Detection, FlangePose, ServiceStatus
@@ -28,11 +26,10 @@ def _status(session, keys: Keys) -> ServiceStatus:  # type: ignore[no-untyped-de
 
 
 def test_queries_are_served_while_a_camera_cloud_waits_for_its_pose(
-    sofia_proc, robot_id: str, session, scenes, tmp_path: Path
+    sofia_proc, robot_id: str, session, scenes, flange_cam_file: Path
 ) -> None:  # type: ignore[no-untyped-def]
     keys = Keys(robot_id)
-    tf = tmp_path / "T_flange_cam.json"
-    tf.write_text(json.dumps({"matrix": DEFAULT_T_FLANGE_CAM.tolist()}))
+    tf = flange_cam_file
     proc = sofia_proc("detector", "serve", "--transform", str(tf), "--pose-wait", str(POSE_WAIT_S))
     proc.wait_for_log("detector ready")
     dets, _sub = _collect(session, keys.detections)

@@ -2,13 +2,12 @@
 
 from __future__ import annotations
 
-import json
 import time
 from pathlib import Path
 
 import numpy as np
 import zenoh
-from sofia_replay.synth import DEFAULT_T_FLANGE_CAM, make_scene, render_scene
+from sofia_replay.synth import make_scene, render_scene
 from sofia_schemas import Board, pointcloud
 from sofia_schemas.keys import ENCODING_CDR_POINTCLOUD2, Keys
 from sofia_schemas.messages import Detection, ErrorReply, ServiceStatus
@@ -30,14 +29,13 @@ def _query(session: zenoh.Session, key: str, payload: bytes) -> zenoh.Reply:
         time.sleep(0.2)
 
 
-def test_frames_decide_and_encodings_are_checked(sofia_proc, robot_id: str, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
+def test_frames_decide_and_encodings_are_checked(sofia_proc, robot_id: str, flange_cam_file: Path) -> None:  # type: ignore[no-untyped-def]
     keys = Keys(robot_id)
     rng = np.random.default_rng(8)
     scene = make_scene(Board.default(), "one", rng, shape="sphere", fld=(0, 2))
     frame = render_scene(scene, rng)
     truth = np.array(scene.objects[0].center)
-    transform = tmp_path / "T_flange_cam.json"
-    transform.write_text(json.dumps({"matrix": DEFAULT_T_FLANGE_CAM.tolist()}))
+    transform = flange_cam_file
     proc = sofia_proc("detector", "serve", "--transform", str(transform))
     proc.wait_for_log("detector ready")
     with zenoh.open(zenoh_config()) as session:

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 from scipy.spatial.transform import Rotation
-from sofia_replay.synth import DEFAULT_T_FLANGE_CAM, make_scene, render_scene
+from sofia_replay.synth import make_scene, render_scene
 from sofia_schemas import Board, pointcloud
 
 STAMP_NS = 1_700_000_500_000_000_000
@@ -21,7 +21,7 @@ def _edge(parent: str, child: str, T: np.ndarray) -> list[object]:
 
 
 def test_camera_driver_and_tf_reach_the_detector(  # type: ignore[no-untyped-def]
-    bus, peer, sofia_proc, robot_id: str, tmp_path: Path
+    bus, peer, sofia_proc, robot_id: str, tmp_path: Path, flange_cam_file: Path
 ) -> None:
     rng = np.random.default_rng(5)
     scene = make_scene(Board.default(), "one", rng, shape="cylinder", fld=(2, 2))
@@ -39,8 +39,7 @@ def test_camera_driver_and_tf_reach_the_detector(  # type: ignore[no-untyped-def
         _edge("panda_link0", "panda_link4", T_base_l4), _edge("panda_link4", "panda_link8", T_l4_flange),
         _edge("panda_link8", "panda_hand", np.eye(4)),
     ]))  # fmt: skip
-    transform = tmp_path / "T_flange_cam.json"
-    transform.write_text(json.dumps({"matrix": DEFAULT_T_FLANGE_CAM.tolist()}))
+    transform = flange_cam_file
 
     detector = sofia_proc("detector", "serve", "--transform", str(transform), env=bus.env)
     bridge = sofia_proc("ros2", "serve", env=bus.env)

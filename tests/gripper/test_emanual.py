@@ -14,6 +14,7 @@ import pytest
 from dynamixel_sdk import COMM_RX_TIMEOUT, COMM_SUCCESS, GroupSyncRead, PacketHandler, PortHandler
 from sofia_gripper import Emulator, Gripper, GripperError, NotReady
 from sofia_gripper.control_table import WATCHDOG_TRIPPED
+from sofia_gripper.startup import recover_watchdog
 from sofia_schemas.messages import GripperCommand as Cmd
 
 from .conftest import make_config, wait_until
@@ -50,6 +51,31 @@ def test_bus_watchdog_trip_during_a_grasp_resends_the_goal(gripper: Gripper, emu
     assert results and results[0].ok and results[0].grasped, results
     assert results[0].opening_mm == pytest.approx(40.0, abs=2.0)
     assert gripper.counters["watchdog_trips"] >= 1
+
+
+def test_bus_watchdog_trip_right_after_the_goal_resends_it(
+    gripper: Gripper, emulator: Emulator, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """ "Bus Watchdog(98)": a trip drops the goal just written. When the host stalls right after
+    the goal and the state loop clears the trip before the command waits for the motion, the
+    command still sends the goal again instead of reporting the fingers blocked where they stand."""
+    set_goal = gripper.set_goal
+
+    def set_goal_then_stall(ticks: float) -> int:
+        goal = set_goal(ticks)
+        monkeypatch.undo()  # once
+        with gripper.bus.lock:  # the host stalls before the servo moved
+            emulator.servo.advance(time.monotonic())
+            time.sleep(0.5)
+        assert recover_watchdog(gripper)  # the state loop sees the trip first
+        return goal
+
+    monkeypatch.setattr(gripper, "set_goal", set_goal_then_stall)
+    emulator.set_object(40.0)
+    r = gripper.execute(Cmd(action="grasp"))
+    assert r.ok and r.grasped, r.reason
+    assert r.opening_mm == pytest.approx(40.0, abs=2.0)
+    assert gripper.counters["watchdog_trips"] == 1
 
 
 def test_bus_watchdog_runs_only_with_torque_on(emulator: Emulator, port: PortHandler) -> None:

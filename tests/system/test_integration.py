@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import zenoh
+from sofia_detector.worker import BAD, STALE, UNMAPPED
 from sofia_replay import iter_messages, read_truth
 from sofia_replay.synth import write_calibration_session, write_scene_set
 from sofia_replay.system.bus import Collector, wait_until
@@ -202,7 +203,12 @@ def test_malformed_payloads_get_error_replies(system: System, service: str, suff
         reply = ErrorReply.model_validate_json(err.payload.to_bytes())
         assert reply.message, reply
     status = ask(system.session, system.keys.status(service), ServiceStatus)
-    assert status.state == "ok"
+    # still serving; the detector may be degraded by clouds it shed on a loaded host, never by queries
+    cloud_drops = status.state == "degraded" and service == "detector"
+    assert status.state == "ok" or cloud_drops, status
+    if cloud_drops:
+        reasons = [part.split(":")[0] for part in status.detail.split("; ")]
+        assert set(reasons) <= {STALE, UNMAPPED, BAD}, status.detail
 
 
 def test_services_killed_mid_stream_come_back(system: System) -> None:

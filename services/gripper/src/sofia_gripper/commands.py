@@ -140,9 +140,10 @@ def _motion(g: Gripper, cmd: GripperCommand, t0: float) -> GripperResult:
         raise NotReady(f"temperature above {g.config.max_temperature_c:g} C")
     if not g.torque:
         raise NotReady("torque is off; send torque with enable=true")
+    trips = g.counters["watchdog_trips"]  # before the goals: a trip recovered meanwhile resends them
     goal = _send_goals(g, cmd, target, current)
     g.grasped = False
-    return _wait(g, cmd, goal, current, t0)
+    return _wait(g, cmd, goal, current, t0, trips)
 
 
 def _send_goals(g: Gripper, cmd: GripperCommand, target: float, current: float) -> int:
@@ -151,15 +152,16 @@ def _send_goals(g: Gripper, cmd: GripperCommand, target: float, current: float) 
     return g.set_goal(target)
 
 
-def _wait(g: Gripper, cmd: GripperCommand, goal: int, current: float, t0: float) -> GripperResult:
+def _wait(g: Gripper, cmd: GripperCommand, goal: int, current: float, t0: float, trips: int) -> GripperResult:
     """Wait for the goal or a stall. A stall is detected from the motion itself (speed about 0
     and either the current at the goal current, or the profile over short of the goal) for
     ``stall_time_s``, not from Moving: the servo keeps Moving at 1 until its profile ends, even
-    when an object stopped the fingers (e-Manual, "Moving(122)")."""
+    when an object stopped the fingers (e-Manual, "Moving(122)"). ``trips``: the watchdog trips
+    counted before the goals were sent; a trip after that (the servo then drops its goal) resends
+    them, as does a stop short of the goal whose Goal Position the servo no longer holds."""
     c = g.config
     deadline = t0 + cmd.timeout_s
     still_since: float | None = None
-    trips = g.counters["watchdog_trips"]
     while True:
         state = g.next_state(0.5)
         now = time.monotonic()
@@ -195,7 +197,13 @@ def _wait(g: Gripper, cmd: GripperCommand, goal: int, current: float, t0: float)
         still_since = still_since or now
         if now - still_since < c.stall_time_s:
             continue
-        if not squeezing and recover_watchdog(g):  # stopped by a trip the state loop has not seen yet
+        if not squeezing and (recover_watchdog(g) or g.bus.read("goal_position") != goal):
+            log.warning(
+                "gripper %s: the servo dropped its goal (a watchdog trip); sending it again", cmd.action
+            )
+            trips = g.counters["watchdog_trips"]
+            _send_goals(g, cmd, goal, current)
+            still_since = None
             continue
         if cmd.action in ("grasp", "close") and squeezing:
             g.grasped = True

@@ -26,7 +26,7 @@ from sofia_schemas.messages import ArmCommandName, ArmResult, ArmStatus
 from .command_token import Token
 from .config import ArmConfig
 from .errors import NotReady
-from .robot import RobotLink
+from .robot import RobotLink, stop_motion
 from .safety import Safety, pose_error, solve_ik
 
 log = logging.getLogger(__name__)
@@ -39,6 +39,11 @@ FAULT_MODES = {"Reflex", "UserStopped", "AutomaticErrorRecovery", "Other"}
 # A motion during which no new robot state arrives for this long, the link being up, is stuck
 # (seen in the simulated cell after a host stall; a dead link is libfranka's UDP time-out instead)
 STATE_SILENCE_S = 5.0
+# Robot time between one motion's end and the next one's start. libfranka sends a finished motion's
+# last command until it sees the robot idle; franky-sim reading a late one after the next Move ended
+# the new motion at once, libfranka's startMotion took that reply, and its control loop then waited
+# for it forever (gdb: ControlLoop::loop -> throwOnMotionError -> tcpBlockingReceiveResponse<Move>).
+MOTION_GAP_S = 0.02
 
 
 class Controller:
@@ -54,6 +59,7 @@ class Controller:
         self.current: Token | None = None
         self.last_command: ArmCommandName | None = None
         self.last_result: ArmResult | None = None
+        self._motion_ended_ns = -1  # robot time at which the last motion ended
 
     # --- commands' lives ----------------------------------------------------
     def begin(self, command: ArmCommandName, timeout_s: float) -> Token:
@@ -117,31 +123,17 @@ class Controller:
     def halt(self, robot: franky.Robot | None = None) -> None:
         """Bring a moving robot to a stop (a stop motion of the running control type)."""
         robot = robot or self.link.robot
-        if robot is None:
-            return
-        kind = robot.current_control_signal_type
-        try:
-            if kind is None:
-                return
-            f = self.config.stop_dynamics
-            if kind == franky.ControlSignalType.CartesianPose:
-                robot.move(franky.CartesianStopMotion(f), asynchronous=True)
-            else:
-                robot.move(franky.JointStopMotion(f), asynchronous=True)
-        except Exception as e:  # a stop must not fail: fall back to libfranka's stop
-            log.warning("stop motion failed (%s), stopping the robot", e)
-            try:
-                robot.stop()
-            except Exception as e2:
-                log.error("robot.stop failed: %s", e2)
+        if robot is not None:
+            stop_motion(robot, self.config.stop_dynamics)
 
     def _run(self, token: Token, robot: franky.Robot, motion: object) -> tuple[ArmStatus, str] | None:
         """Run ``motion`` until it ends; None when it finished, else (status, reason).
 
         A motion during which no new robot state arrives for ``STATE_SILENCE_S`` is stopped; when
         the robot then sends states again, the motion counts as ended (the caller measures where
-        the arm is), else the connection is lost."""
+        the arm is), else the connection is lost. It starts ``MOTION_GAP_S`` after the last one ended."""
         try:
+            self._wait_motion_gap(token)
             robot.move(motion, asynchronous=True)  # type: ignore[call-overload]
             heard = (self._robot_ns(), time.monotonic())
             while True:
@@ -162,6 +154,14 @@ class Controller:
                 self.link.lost(reason)
             log.warning("%s failed: %s", token.command, reason)
             return "failed", reason
+        finally:
+            self._motion_ended_ns = self._robot_ns()
+
+    def _wait_motion_gap(self, token: Token) -> None:
+        """Wait until the robot's clock is ``MOTION_GAP_S`` past the end of the last motion."""
+        gap_ns = self._motion_ended_ns + int(MOTION_GAP_S * 1e9) - self._robot_ns()
+        if gap_ns > 0:
+            self.wait_robot_time(token, gap_ns / 1e9)
 
     def _robot_ns(self) -> int:
         latest = self.link.latest

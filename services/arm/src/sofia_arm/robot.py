@@ -81,6 +81,25 @@ def sample_of(state: franky.RobotState, clock: ClockMap, received_ns: int) -> Sa
     )  # fmt: skip
 
 
+def stop_motion(robot: franky.Robot, dynamics: float) -> None:
+    """Bring a moving robot to a stop with a stop motion of the running control type (libfranka's
+    stop if that fails); nothing when it is not moving."""
+    try:
+        kind = robot.current_control_signal_type
+        if kind is None:
+            return
+        if kind == franky.ControlSignalType.CartesianPose:
+            robot.move(franky.CartesianStopMotion(dynamics), asynchronous=True)
+        else:
+            robot.move(franky.JointStopMotion(dynamics), asynchronous=True)
+    except Exception as e:  # a stop must not fail: fall back to libfranka's stop
+        log.warning("stop motion failed (%s), stopping the robot", e)
+        try:
+            robot.stop()
+        except Exception as e2:
+            log.error("robot.stop failed: %s", e2)
+
+
 class RobotLink:
     """franky's Robot plus a state thread. ``robot`` is None while disconnected."""
 
@@ -101,6 +120,9 @@ class RobotLink:
         self._cond = threading.Condition()
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
+        # lost connections' Robots, kept: franky's destructor joins the control thread, which
+        # waits forever when the robot never answers the running motion, and would hang its caller
+        self._lost: list[franky.Robot] = []
 
     # --- connection ---------------------------------------------------------
     def connect(self) -> franky.Robot:
@@ -122,6 +144,7 @@ class RobotLink:
         if self.robot is not None:
             log.error("robot connection lost: %s", reason)
             self.counters["disconnects"] += 1
+            self._lost.append(self.robot)
         self.robot = None
         self.connected.clear()
         self.error = f"connection to the robot at {self.host} lost: {reason}"

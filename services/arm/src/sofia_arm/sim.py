@@ -2,14 +2,17 @@
 
 ``franky-sim --simulator mujoco`` binds the first free loopback address
 (127.0.0.1, else 127.0.0.2, ...) on libfranka's ports and prints it; :func:`start_sim` waits for
-that line. ``--hostname`` forces an address (a restarted simulator takes its predecessor's).
+that line. ``--hostname`` forces an address (a restarted simulator takes its predecessor's). On
+Linux the simulator gets SIGTERM when the process that started it dies, even by SIGKILL.
 """
 
 from __future__ import annotations
 
+import ctypes
 import logging
 import os
 import re
+import signal
 import subprocess
 import sys
 import threading
@@ -24,6 +27,11 @@ from .errors import SimError
 log = logging.getLogger(__name__)
 READY_RE = re.compile(r"using '([0-9.]+)' as the robot IP address")
 START_TIMEOUT_S = 60.0
+
+
+def _exit_with_parent() -> None:
+    """In the child before exec: SIGTERM when the parent dies (prctl PR_SET_PDEATHSIG)."""
+    ctypes.CDLL(None).prctl(1, signal.SIGTERM)
 
 
 @dataclass
@@ -60,7 +68,7 @@ def start_sim(hostname: str | None = None, timeout_s: float = START_TIMEOUT_S) -
         cmd += ["--hostname", hostname]
     env = dict(os.environ, PYTHONUNBUFFERED="1", MUJOCO_GL=os.environ.get("MUJOCO_GL", "egl"))
     popen = subprocess.Popen(cmd, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
-                             text=True, env=env)  # fmt: skip
+                             text=True, env=env, preexec_fn=_exit_with_parent if sys.platform == "linux" else None)  # fmt: skip
     assert popen.stdout is not None
     lines: list[str] = []
     found: list[str] = []

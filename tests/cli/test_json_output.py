@@ -25,7 +25,6 @@ NO_RESULT = {  # command -> why it prints no result to format
     ("ros2", "serve"): "a service, runs until stopped",
     ("viz", "serve"): "a service, runs until stopped",
     ("router",): "a Zenoh router, runs until stopped",
-    ("up",): "the supervisor of the services, runs until stopped",
     ("replay", "play"): "publishes on the bus; progress goes to the log",
     ("gripper", "emulate"): "prints its tty and answers fault commands typed on stdin",
     ("gripper", "calibrate"): "asks a person to type what the scale reads; writes the config file",

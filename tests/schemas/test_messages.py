@@ -97,3 +97,12 @@ def test_msgdef_for_mcap_schemas() -> None:
     text = rosmsg.msgdef(rosmsg.POINTCLOUD2)
     assert text.startswith("std_msgs/Header header")
     assert "MSG: sensor_msgs/PointField" in text
+
+
+def test_arm_phase_lines_say_ok_skip_or_fail() -> None:
+    from sofia_schemas.messages import ArmPhase
+
+    assert ArmPhase(name="pose 3/20", status="done", reason="blob at").line() == "ok   pose 3/20: blob at"
+    skipped = ArmPhase(name="visit 4", status="failed", reason="no blob: blob touches the image edge")
+    assert skipped.line() == "skip visit 4: no blob: blob touches the image edge"  # the next view is tried
+    assert ArmPhase(name="grasp", status="failed", reason="blocked").line() == "FAIL grasp: blocked"

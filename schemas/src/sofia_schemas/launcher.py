@@ -16,13 +16,14 @@ import sys
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import IO
+from typing import IO, Any
 
 import zenoh
 
 from .client import QueryError, ask
 from .keys import Keys, default_robot
 from .messages import ServiceStatus
+from .output import add_json_option, emit
 from .service import StopFlag
 from .zenoh_config import DEFAULT_ROUTER_LISTEN, ZenohOptions, add_zenoh_args, zenoh_config
 
@@ -127,12 +128,13 @@ class Launcher:
             m.state = state
         return {name: m.state for name, m in self.procs.items()}
 
+    def rows(self) -> list[dict[str, Any]]:
+        """One dict per process: service, pid (None when not running), state, restarts."""
+        return [{"service": name, "pid": m.popen.pid if m.popen else None, "state": m.state,
+                 "restarts": m.restarts} for name, m in self.procs.items()]  # fmt: skip
+
     def table(self) -> str:
-        rows = [f"{'service':<12}{'pid':>8}  {'state':<12}{'restarts':>8}"]
-        for name, m in self.procs.items():
-            pid = str(m.popen.pid) if m.popen else "-"
-            rows.append(f"{name:<12}{pid:>8}  {m.state:<12}{m.restarts:>8}")
-        return "\n".join(rows)
+        return health_table(self.rows())
 
     def stop(self) -> None:
         for m in self.procs.values():
@@ -152,6 +154,15 @@ class Launcher:
                 m.log_file.close()
             log.info("stopped %s (exit %s)", m.spec.name, m.popen.returncode)
             m.popen = None
+
+
+def health_table(rows: list[dict[str, Any]]) -> str:
+    """The health table ``sofia up`` prints: service, pid, state, restarts."""
+    lines = [f"{'service':<12}{'pid':>8}  {'state':<12}{'restarts':>8}"]
+    for r in rows:
+        pid = "-" if r["pid"] is None else str(r["pid"])
+        lines.append(f"{r['service']:<12}{pid:>8}  {r['state']:<12}{r['restarts']:>8}")
+    return "\n".join(lines)
 
 
 def default_specs(args: argparse.Namespace) -> list[ServiceSpec]:
@@ -210,6 +221,7 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     )  # fmt: skip
     add_up_args(p)
     add_zenoh_args(p)
+    add_json_option(p, "one object per change of the health table and line", "the health table")
     p.set_defaults(func=up)
 
 
@@ -217,16 +229,16 @@ def up(args: argparse.Namespace) -> int:
     stop = StopFlag()
     launcher = Launcher(default_specs(args), args.log_dir, args.robot or default_robot())
     launcher.start()
-    shown = ""
+    shown: list[dict[str, Any]] = []
     try:
         with zenoh.open(zenoh_config(ZenohOptions.from_args(args))) as session:
             while not stop.wait(1.0):
                 launcher.poll()
                 launcher.check_health(session)
-                table = launcher.table()
-                if table != shown:
-                    print(table, flush=True)
-                    shown = table
+                rows = launcher.rows()
+                if rows != shown:
+                    emit(args, {"services": rows}, health_table(rows))
+                    shown = rows
     finally:
         launcher.stop()
     return 0

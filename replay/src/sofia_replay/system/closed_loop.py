@@ -54,7 +54,7 @@ def _healthy(session: zenoh.Session, launchers: list[Launcher], timeout: float) 
 
 def _ask_arm(session: zenoh.Session, keys: Keys, cmd: ArmCommand) -> ArmResult:
     def show(p: ArmPhase) -> None:
-        say(f"  {'ok  ' if p.status == 'done' else 'FAIL'} {p.name}: {p.reason}")
+        say(f"  {p.line()}")
 
     progress = Collector(session, keys.arm_progress, ArmPhase, show)
     try:

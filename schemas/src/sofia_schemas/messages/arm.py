@@ -80,12 +80,22 @@ class ArmCommand(Message):
 
 
 class ArmPhase(Message):
-    """One step of a compound command (pick and place, calibration)."""
+    """One step of a compound command (pick and place, calibration). A calibration view that gave no
+    sample is ``failed`` and named ``visit N`` (:data:`VIEW_WITHOUT_SAMPLE`): the next view is tried."""
 
     name: str
     status: ArmStatus
     reason: str = ""
     duration_s: float = 0.0
+
+    def line(self) -> str:
+        """One progress line for people: ``ok``, ``skip`` (a view without a sample) or ``FAIL``."""
+        skipped = self.name.startswith(VIEW_WITHOUT_SAMPLE)
+        mark = "ok  " if self.status == "done" else "skip" if skipped else "FAIL"
+        return f"{mark} {self.name}: {self.reason}"
+
+
+VIEW_WITHOUT_SAMPLE = "visit"  # name of a calibration view that gave no sample, before its number
 
 
 class ArmResult(Message):

@@ -22,6 +22,7 @@ from sofia_calibrator.errors import CalibrationError
 from sofia_schemas.client import QueryError
 from sofia_schemas.keys import Keys
 from sofia_schemas.messages import ArmCommand, ArmResult, CalibrationResult
+from sofia_schemas.messages.arm import VIEW_WITHOUT_SAMPLE
 from sofia_schemas.transforms import apply, invert
 
 from . import plan
@@ -177,7 +178,11 @@ class Autocal(Looker):
             text = self.sample_at(T, len(self.samples_T) + 1)
             ok = text.startswith("blob")
             failures = 0 if ok else failures + 1
-            name = f"pose {len(self.samples_T)}/{self.opts.max_poses}" if ok else f"visit {visits}"
+            name = (
+                f"pose {len(self.samples_T)}/{self.opts.max_poses}"
+                if ok
+                else f"{VIEW_WITHOUT_SAMPLE} {visits}"
+            )
             self.progress.add(name, "done" if ok else "failed", text, time.monotonic() - t)
             if failures >= self.opts.max_failures:
                 raise AutocalError("views", f"{failures} views in a row without a sample ({text})")

@@ -62,8 +62,7 @@ def run_auto(args: argparse.Namespace) -> int:
             p = ArmPhase.model_validate_json(s.payload.to_bytes())
         except ValueError:
             return
-        line = f"{'ok  ' if p.status == 'done' else 'FAIL'} {p.name}: {p.reason}"
-        print(line, file=sys.stderr if args.json else sys.stdout, flush=True)
+        print(p.line(), file=sys.stderr if args.json else sys.stdout, flush=True)
 
     with zenoh.open(zenoh_config(ZenohOptions.from_args(args))) as session:
         sub = session.declare_subscriber(keys.arm_progress, show)

@@ -71,6 +71,14 @@ def test_a_full_queue_drops_the_oldest_cloud_and_says_so() -> None:
         WorkQueue(backlog=0)
 
 
+def test_queries_beyond_the_bound_are_refused_and_counted_not_queued() -> None:
+    work: WorkQueue[str] = WorkQueue(max_queries=2)
+    assert [work.put_query(q) for q in ("a", "b", "c", "d")] == [0, 0, 2, 2]  # 2 waiting when refused
+    assert work.busy == 2
+    assert [work.get(lambda j: 0.0), work.get(lambda j: 0.0)] == ["a", "b"]  # the queued ones, in order
+    assert work.put_query("e") == 0 and work.get(lambda j: 0.0) == "e"  # room again
+
+
 @pytest.mark.parametrize(
     "correction",
     [

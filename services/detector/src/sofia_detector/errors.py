@@ -23,6 +23,13 @@ class UnreadableFile(DetectorError):  # noqa: N818 - public API name
         super().__init__(f"{path}: {what}")
 
 
+class DetectorBusy(DetectorError):  # noqa: N818 - public API name
+    """Too many detect queries are already waiting."""
+
+    def __init__(self, waiting: int) -> None:
+        super().__init__(f"busy, retry: {waiting} detect queries are already waiting for the detector")
+
+
 class TransformUnavailable(DetectorError):  # noqa: N818 - public API name
     """A camera-frame cloud cannot be mapped into the base frame."""
 

@@ -9,11 +9,10 @@
   empty one the detection of the latest cloud, a bad one an error reply;
 - ``Keys(robot).status("detector")``: :class:`ServiceStatus` every second, and queryable.
 
-Callbacks only hand data over, to one :class:`~.worker.WorkQueue` (the newest ``backlog`` clouds:
-older unprocessed clouds are dropped and counted; every query); one worker thread, woken by each
-arrival, answers queries first and detects. A camera cloud waits there for the flange pose of its
-stamp (up to ``POSE_WAIT_S``) while queries are served. Dropped input makes the status ``degraded``
-with the reason and counts (:class:`~.worker.DropLog`).
+Callbacks only hand data over, to one :class:`~.worker.WorkQueue` (the newest ``backlog`` clouds,
+older ones dropped and counted; up to ``QUERIES_MAX`` queries, more answered "busy, retry" at once).
+One worker, woken by each arrival, answers queries first; a camera cloud waits for the flange pose
+of its stamp (up to ``POSE_WAIT_S``). Dropped clouds make the status ``degraded`` (:class:`DropLog`).
 """
 
 from __future__ import annotations
@@ -38,7 +37,7 @@ from sofia_schemas.service import StatusEndpoint, StopFlag, query_payload, reply
 from sofia_schemas.zenoh_config import ZenohOptions, zenoh_config
 
 from .detect import detect
-from .errors import DetectorError, TransformUnavailable, UnknownFrame
+from .errors import DetectorBusy, DetectorError, TransformUnavailable, UnknownFrame
 from .frames import FlangeHistory, load_correction_file, load_transform_file, parse_transform
 from .params import DetectorParams
 from .pick import PickParams, first_pick
@@ -103,6 +102,10 @@ class Detector:
         att = sample.attachment
         applied = correction_applied(att.to_bytes() if att is not None else None)
         self.work.put_cloud(CloudJob(sample.payload.to_bytes(), True, str(sample.key_expr), applied))
+
+    def on_query(self, query: zenoh.Query) -> None:
+        if waiting := self.work.put_query(query):  # refused: answered here at once, never silence
+            reply_error(query, DetectorBusy(waiting))
 
     def on_flange_pose(self, sample: zenoh.Sample) -> None:
         try:
@@ -248,7 +251,8 @@ class Detector:
 
     def status(self) -> ServiceStatus:
         with self._lock:
-            counters = dict(self.counters, received=self.work.received, dropped=self.work.dropped)
+            w = self.work
+            counters = dict(self.counters, received=w.received, dropped=w.dropped, busy_queries=w.busy)
             transform, detail = self.transform_name, self.last_error
         state, dropped = self.drops.state()
         return ServiceStatus(
@@ -276,7 +280,7 @@ def main(config: ServiceConfig) -> int:
             session.declare_subscriber(keys.camera_points, service.on_camera_points),
             session.declare_subscriber(keys.flange_pose, service.on_flange_pose),
             session.declare_subscriber(keys.calibration_result, service.on_calibration),
-            session.declare_queryable(keys.detect, service.work.put_query),
+            session.declare_queryable(keys.detect, service.on_query),
             StatusEndpoint(session, keys.status("detector"), service.status),
         ]
         worker = run_worker("detector", service.run)

@@ -24,6 +24,7 @@ from sofia_schemas import pointcloud
 from sofia_schemas.messages.calibration import CameraCorrection
 
 Q = TypeVar("Q")
+QUERIES_MAX = 64  # detect queries waiting for the worker; beyond, they are answered "busy, retry" at once
 DEGRADED_WINDOW_S = 10.0  # the status is degraded while the last drop is more recent than this
 STALE = "stale clouds"  # reasons for dropping a cloud, as the status names them
 UNMAPPED = "camera-frame clouds not mapped to the base frame"
@@ -60,14 +61,18 @@ class CloudJob:
 
 
 class WorkQueue(Generic[Q]):
-    """Queries (unbounded: each one is answered) and the newest ``backlog`` clouds (a put on a full
-    queue drops the oldest cloud and counts it in ``dropped`` and ``drops``), behind one condition
-    variable."""
+    """Up to ``max_queries`` queries (each one queued is answered; :meth:`put_query` refuses more)
+    and the newest ``backlog`` clouds (a put on a full queue drops the oldest cloud and counts it in
+    ``dropped`` and ``drops``), behind one condition variable."""
 
-    def __init__(self, backlog: int = 1, drops: DropLog | None = None) -> None:
+    def __init__(
+        self, backlog: int = 1, drops: DropLog | None = None, max_queries: int = QUERIES_MAX
+    ) -> None:
         if backlog < 1:
             raise ValueError(f"backlog must be at least 1 cloud, got {backlog}")
         self.backlog = backlog
+        self.max_queries = max_queries
+        self.busy = 0  # queries refused because max_queries were waiting
         self._cond = threading.Condition()
         self._queries: deque[Q] = deque()
         self._clouds: deque[CloudJob] = deque()
@@ -76,10 +81,15 @@ class WorkQueue(Generic[Q]):
         self.dropped = 0
         self.drops = drops if drops is not None else DropLog()
 
-    def put_query(self, query: Q) -> None:
+    def put_query(self, query: Q) -> int:
+        """Queue ``query``; 0, or the number already waiting when it is refused (the caller answers it)."""
         with self._cond:
+            if len(self._queries) >= self.max_queries:
+                self.busy += 1
+                return len(self._queries)
             self._queries.append(query)
             self._cond.notify()
+            return 0
 
     def put_cloud(self, job: CloudJob) -> CloudJob | None:
         """Queue ``job``; returns the cloud dropped to make room (None when there was room)."""

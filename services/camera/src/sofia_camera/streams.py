@@ -8,6 +8,7 @@ reports their skew, so the service can say when they are not of the same instant
 from __future__ import annotations
 
 import logging
+import time
 from collections import deque
 from dataclasses import dataclass
 from typing import Any, Protocol
@@ -16,6 +17,9 @@ import pyrealsense2 as rs
 
 log = logging.getLogger(__name__)
 QUEUE_FRAMES = 4  # frames a queue keeps; older ones are dropped (and show up as frame-number gaps)
+# Wall time a depth frame waits for the colour frame of its instant: the sensors deliver on their own
+# threads, and a loaded host delays one more than the other (the skew itself is in device time)
+COLOR_WAIT_S = 0.1
 
 
 @dataclass
@@ -44,8 +48,8 @@ class FrameSource(Protocol):
         """Stop streaming (safe to call when not open or after an unplug)."""
 
     def wait_pair(self, timeout_s: float, max_skew_ms: float = 16.0) -> FramePair | None:
-        """The next depth frame with the colour frame nearest in time (waiting up to ``max_skew_ms``
-        for one of the same instant), or None after ``timeout_s`` without depth."""
+        """The next depth frame with the colour frame nearest in time (waiting up to ``COLOR_WAIT_S``
+        for one within ``max_skew_ms``), or None after ``timeout_s`` without depth."""
 
     def bus_stamp_ns(self, depth: rs.frame) -> int | None:
         """The frame's bus time when the source knows it exactly (simulation), else None."""
@@ -101,8 +105,9 @@ class SensorPair:
         return best, best.get_timestamp() - t_ms
 
     def wait_pair(self, timeout_s: float, max_skew_ms: float, arrival_ns: Any) -> FramePair | None:
-        """Next depth frame and the nearest colour; waits up to ``max_skew_ms`` for a colour frame
-        of the same instant. ``arrival_ns``: the bus clock (called when the depth frame is taken)."""
+        """Next depth frame and the nearest colour; waits up to ``COLOR_WAIT_S`` (wall time) for a
+        colour frame within ``max_skew_ms`` (device time) of it, unless a later colour frame already
+        came. ``arrival_ns``: the bus clock (called when the depth frame is taken)."""
         ok, depth = self.depth_queue.try_wait_for_frame(int(timeout_s * 1000))
         if not ok:
             return None
@@ -110,12 +115,14 @@ class SensorPair:
         t_ms = depth.get_timestamp()
         self._drain_colors()
         color, skew = self._nearest(t_ms)
-        if color is None or abs(skew) > max_skew_ms:
-            ok, frame = self.color_queue.try_wait_for_frame(int(max(max_skew_ms, 1.0)))
-            if ok:
-                self.colors.append(frame)
-                self._drain_colors()
-                color, skew = self._nearest(t_ms)
+        deadline = time.monotonic() + COLOR_WAIT_S
+        while color is None or (abs(skew) > max_skew_ms and self.colors[-1].get_timestamp() < t_ms):
+            ok, frame = self.color_queue.try_wait_for_frame(max(1, int(1000 * (deadline - time.monotonic()))))
+            if not ok:
+                break
+            self.colors.append(frame)
+            self._drain_colors()
+            color, skew = self._nearest(t_ms)
         if color is not None:  # colour frames older than the one used will not be wanted again
             while self.colors and self.colors[0].get_timestamp() < color.get_timestamp():
                 self.colors.popleft()

@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
-from sofia_calibrator.pairing import NotPaired, PairingOptions, PoseBuffer, interpolate
-from sofia_schemas.transforms import rotation_angle
+from sofia_calibrator.pairing import NotPaired, PairingOptions, PoseBuffer
+from sofia_schemas.transforms import interpolate_poses, rotation_angle
 
 
 def pose(x: float, yaw_deg: float) -> np.ndarray:
@@ -17,9 +17,14 @@ def pose(x: float, yaw_deg: float) -> np.ndarray:
 
 
 def test_interpolation_is_linear_and_slerp() -> None:
-    T = interpolate(pose(0.0, 0.0), pose(0.1, 40.0), 0.25)
+    T = interpolate_poses(pose(0.0, 0.0), pose(0.1, 40.0), 0.25)
+    assert T.shape == (4, 4)
     np.testing.assert_allclose(T[:3, 3], [0.025, 0.0, 0.5])
     assert np.degrees(rotation_angle(T[:3, :3])) == pytest.approx(10.0)
+    Ts = interpolate_poses(pose(0.0, 0.0), pose(0.1, 40.0), np.array([0.0, 0.5, 1.0]))  # several at once
+    assert Ts.shape == (3, 4, 4)
+    np.testing.assert_allclose(np.degrees(rotation_angle(Ts[:, :3, :3])), [0.0, 20.0, 40.0], atol=1e-9)
+    np.testing.assert_allclose(Ts[[0, 2]], [pose(0.0, 0.0), pose(0.1, 40.0)], atol=1e-12)
 
 
 def test_pose_at_and_still_check() -> None:

@@ -1,4 +1,4 @@
-"""Rigid transforms: validation, quaternions (x y z w), composition, inversion.
+"""Rigid transforms: validation, quaternions (x y z w), composition, inversion, interpolation.
 
 Conventions: ``T_a_b`` is a (4, 4) homogeneous matrix mapping points in frame ``b`` into frame
 ``a``: ``p_a = T_a_b[:3, :3] @ p_b + T_a_b[:3, 3]``. Quaternions are ordered x y z w.
@@ -7,7 +7,7 @@ Conventions: ``T_a_b`` is a (4, 4) homogeneous matrix mapping points in frame ``
 from __future__ import annotations
 
 import numpy as np
-from scipy.spatial.transform import Rotation
+from scipy.spatial.transform import Rotation, Slerp
 
 ORTHONORMAL_TOL = 1e-6
 QUAT_NORM_TOL = 1e-3
@@ -126,3 +126,15 @@ def rotation_angle(R: np.ndarray) -> np.ndarray:
     """Angle (radians) of (…, 3, 3) rotations."""
     tr = np.trace(np.asarray(R), axis1=-2, axis2=-1)
     return np.arccos(np.clip((tr - 1.0) / 2.0, -1.0, 1.0))
+
+
+def interpolate_poses(T_a: np.ndarray, T_b: np.ndarray, s: float | np.ndarray) -> np.ndarray:
+    """Poses a fraction ``s`` (scalar, or (n,) in [0, 1]) of the way from ``T_a`` to ``T_b`` (4, 4):
+    translation linear, rotation by slerp. (4, 4) for a scalar ``s``, else (n, 4, 4)."""
+    s_n = np.atleast_1d(np.asarray(s, dtype=np.float64))
+    T = np.tile(np.eye(4), (s_n.size, 1, 1))
+    T[:, :3, :3] = Slerp([0.0, 1.0], Rotation.from_matrix(np.stack([T_a[:3, :3], T_b[:3, :3]])))(
+        s_n
+    ).as_matrix()
+    T[:, :3, 3] = (1.0 - s_n)[:, None] * T_a[:3, 3] + s_n[:, None] * T_b[:3, 3]
+    return T[0] if np.ndim(s) == 0 else T

@@ -14,10 +14,10 @@ from pathlib import Path
 from typing import Literal
 
 import numpy as np
-from scipy.spatial.transform import Rotation, Slerp
 from sofia_schemas import Board, pointcloud
 from sofia_schemas.keys import TOPIC_BLOB, TOPIC_CAMERA_POINTS, TOPIC_FLANGE_POSE, TOPIC_POINTS
 from sofia_schemas.messages import BlobObservation, FlangePose
+from sofia_schemas.transforms import interpolate_poses
 
 from ..mcap_io import McapWriter
 from .calibration import CalibrationSession, make_calibration_session
@@ -123,12 +123,7 @@ def blob_measurement(p_cam_true: np.ndarray, rng: np.random.Generator, camera: C
 
 def _motion(T_a: np.ndarray, T_b: np.ndarray, n: int) -> np.ndarray:
     """(n, 4, 4) poses strictly between ``T_a`` and ``T_b`` (linear translation, slerp rotation)."""
-    s = np.linspace(0, 1, n + 2)[1:-1]
-    R = Slerp([0, 1], Rotation.from_matrix(np.stack([T_a[:3, :3], T_b[:3, :3]])))(s).as_matrix()
-    T = np.tile(np.eye(4), (n, 1, 1))
-    T[:, :3, :3] = R
-    T[:, :3, 3] = (1 - s)[:, None] * T_a[:3, 3] + s[:, None] * T_b[:3, 3]
-    return T
+    return np.asarray(interpolate_poses(T_a, T_b, np.linspace(0, 1, n + 2)[1:-1]))
 
 
 def write_calibration_session(

@@ -7,8 +7,7 @@ import bisect
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.spatial.transform import Rotation, Slerp
-from sofia_schemas.transforms import rotation_angle
+from sofia_schemas.transforms import interpolate_poses, rotation_angle
 
 from .errors import CalibrationError
 
@@ -61,7 +60,7 @@ class PoseBuffer:
         if 0 < k < len(self.stamps_ns):
             t0, t1 = self.stamps_ns[k - 1], self.stamps_ns[k]
             if t1 - t0 <= opts.max_gap_ns:
-                return interpolate(self.poses[k - 1], self.poses[k], (stamp_ns - t0) / (t1 - t0))
+                return interpolate_poses(self.poses[k - 1], self.poses[k], (stamp_ns - t0) / (t1 - t0))
         near = min((i for i in (k - 1, k) if 0 <= i < len(self.stamps_ns)),
                    key=lambda i: abs(self.stamps_ns[i] - stamp_ns))  # fmt: skip
         gap = abs(self.stamps_ns[near] - stamp_ns)
@@ -91,12 +90,3 @@ class PoseBuffer:
         T = self.pose_at(stamp_ns, opts)
         self.check_still(stamp_ns, opts)
         return T
-
-
-def interpolate(T_a: np.ndarray, T_b: np.ndarray, s: float) -> np.ndarray:
-    """(4, 4) pose a fraction ``s`` in [0, 1] from T_a to T_b: linear translation, slerp rotation."""
-    R = Slerp([0.0, 1.0], Rotation.from_matrix(np.stack([T_a[:3, :3], T_b[:3, :3]])))([s]).as_matrix()[0]
-    T = np.eye(4)
-    T[:3, :3] = R
-    T[:3, 3] = (1.0 - s) * T_a[:3, 3] + s * T_b[:3, 3]
-    return T

@@ -15,10 +15,9 @@ from collections import deque
 from pathlib import Path
 
 import numpy as np
-from scipy.spatial.transform import Rotation, Slerp
 from sofia_schemas.files import FileContentError, load_json_or_yaml
 from sofia_schemas.messages.calibration import CameraCorrection
-from sofia_schemas.transforms import as_transforms, invert, make_transform
+from sofia_schemas.transforms import as_transforms, interpolate_poses, invert, make_transform
 
 from .errors import BadTransformFile, TransformUnavailable
 from .plane import change_frame, coords
@@ -134,11 +133,7 @@ class FlangeHistory:
             return poses[i][1]
         if 0 < i < len(stamps) and stamps[i] - stamps[i - 1] <= 2 * self.tolerance_ns:
             (t0, T0), (t1, T1) = poses[i - 1], poses[i]
-            s = (stamp_ns - t0) / (t1 - t0)
-            R = Slerp([0.0, 1.0], Rotation.from_matrix(np.stack([T0[:3, :3], T1[:3, :3]])))(s).as_matrix()
-            T = np.eye(4)
-            T[:3, :3], T[:3, 3] = R, (1 - s) * T0[:3, 3] + s * T1[:3, 3]
-            return T
+            return interpolate_poses(T0, T1, (stamp_ns - t0) / (t1 - t0))
         near = min((j for j in (i - 1, i) if 0 <= j < len(stamps)), key=lambda j: abs(stamps[j] - stamp_ns))
         gap = abs(stamps[near] - stamp_ns)
         if gap > self.tolerance_ns:

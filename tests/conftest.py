@@ -1,5 +1,6 @@
-"""Shared fixtures: a unique robot id per test (isolates Zenoh traffic), and real service
-processes started with the ``sofia`` command, stopped with SIGTERM and their logs kept."""
+"""Shared fixtures: a unique robot id per test (isolates Zenoh traffic), real service processes
+started with the ``sofia`` command (stopped with SIGTERM, their logs kept), a Zenoh session of the
+test process, and :func:`query_json` for the JSON replies of a queryable."""
 
 from __future__ import annotations
 
@@ -14,9 +15,29 @@ from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import pytest
+import zenoh
+from sofia_schemas import client, zenoh_config
 
 REPO = Path(__file__).resolve().parents[1]
 SOFIA = str(Path(sys.executable).with_name("sofia"))
+
+
+@pytest.fixture
+def session() -> Iterator[zenoh.Session]:
+    """A Zenoh session of the test process, as a client of the services under test."""
+    with zenoh.open(zenoh_config()) as s:
+        yield s
+
+
+def query_json(session: zenoh.Session, key: str, payload: str | bytes | None = None,
+               timeout: float = 30.0) -> tuple[bool, dict]:  # type: ignore[type-arg]  # fmt: skip
+    """(ok, JSON body) of the first reply to a query on ``key`` (an error reply: False and its
+    ErrorReply); fails when nothing answers within ``timeout`` (discovery included)."""
+    replies = client.query(session, key, payload, timeout=timeout)
+    assert replies, f"no reply to {key} within {timeout} s"
+    ok, err = replies[0].ok, replies[0].err
+    body = ok.payload.to_bytes() if ok is not None else err.payload.to_bytes() if err is not None else b"{}"
+    return ok is not None, json.loads(body)
 
 
 @pytest.fixture

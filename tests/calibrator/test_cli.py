@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import json
 import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -14,7 +13,8 @@ from sofia_calibrator import to_message, to_yaml
 from sofia_calibrator.calibrate import calibrate
 from sofia_calibrator.simulate import make_problem
 
-SOFIA = str(Path(sys.executable).with_name("sofia"))
+from ..conftest import SOFIA
+
 KEYS = ("matrix", "translation", "quaternion_xyzw", "rpy", "target_base", "spread_mm", "inliers", "outliers",
         "std_translation_mm", "std_rotation_deg", "dissipation_before", "dissipation_after", "warnings")  # fmt: skip
 

@@ -6,7 +6,7 @@ from __future__ import annotations
 import json
 import threading
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -17,27 +17,11 @@ from sofia_calibrator.simulate import make_problem
 from sofia_schemas.keys import Keys
 from sofia_schemas.messages import BlobObservation, CalibrationResult, FlangePose
 from sofia_schemas.rosmsg import encode_blob, encode_flange_pose
-from sofia_schemas.zenoh_config import open_session
+
+from ..conftest import query_json
 
 T0_NS = 1_700_000_000_000_000_000
 PERIOD_NS = 1_000_000_000
-
-
-@pytest.fixture
-def session() -> Iterator[zenoh.Session]:
-    with open_session() as s:
-        yield s
-
-
-def query(
-    session: zenoh.Session, key: str, payload: str | None = None, timeout: float = 15.0
-) -> tuple[bool, dict]:  # type: ignore[type-arg]
-    """(ok, JSON body) of the first reply to a query."""
-    for reply in session.get(key, payload=payload, timeout=timeout):
-        if reply.ok is not None:
-            return True, json.loads(reply.ok.payload.to_bytes())
-        return False, json.loads(reply.err.payload.to_bytes())
-    raise AssertionError(f"no reply to {key}")
 
 
 def wait_until_served(session: zenoh.Session, keys: Keys, timeout: float = 40.0) -> None:
@@ -107,36 +91,38 @@ def test_service_online_queries_errors_and_restart(
     assert last.camera_correction.model == offline.correction.model and len(last.correction_models) == 3
     assert np.allclose(last.covariance, offline.covariance6, rtol=1e-3, atol=1e-15)
 
-    ok, body = query(session, keys.calibrator_op("result"))
+    ok, body = query_json(session, keys.calibrator_op("result"))
     assert ok and body["n_samples"] == 8 and len(body["matrix"]) == 4
-    ok, body = query(session, keys.status("calibrator"))
+    ok, body = query_json(session, keys.status("calibrator"))
     assert ok and body["service"] == "calibrator" and body["counters"]["samples"] == 8
 
     # add and remove through queries
     s = {"stamp_ns": 5, "p_cam": list(pr.p_cam[2]), "translation": list(pr.T_base_flange[2, :3, 3]),
          "rotation_xyzw": [0.0, 0.0, 0.0, 1.0]}  # fmt: skip
-    ok, body = query(session, keys.calibrator_op("add"), json.dumps(s))
+    ok, body = query_json(session, keys.calibrator_op("add"), json.dumps(s))
     assert ok and body["samples"][0]["sample_id"] == 8
-    ok, body = query(session, keys.calibrator_op("remove"), json.dumps({"sample_ids": [8]}))
+    ok, body = query_json(session, keys.calibrator_op("remove"), json.dumps({"sample_ids": [8]}))
     assert ok and [x["sample_id"] for x in body["samples"]] == list(range(8))
 
     # bad input gets an error reply naming what was wrong
-    ok, body = query(session, keys.calibrator_op("add"), '{"p_cam": [0, 0, "nan"]}')
+    ok, body = query_json(session, keys.calibrator_op("add"), '{"p_cam": [0, 0, "nan"]}')
     assert not ok and body["error"] == "ValidationError" and "p_cam" in body["message"]
-    ok, body = query(session, keys.calibrator_op("remove"), json.dumps({"sample_ids": [99]}))
+    ok, body = query_json(session, keys.calibrator_op("remove"), json.dumps({"sample_ids": [99]}))
     assert not ok and "no sample with id 99" in body["message"]
-    ok, body = query(session, keys.calibrator_op("solve"), json.dumps({"loss": "l1"}))
+    ok, body = query_json(session, keys.calibrator_op("solve"), json.dumps({"loss": "l1"}))
     assert not ok and "loss must be one of" in body["message"]
-    ok, body = query(session, keys.calibrator_op("solve"), json.dumps({"noise": "gaussian"}))
+    ok, body = query_json(session, keys.calibrator_op("solve"), json.dumps({"noise": "gaussian"}))
     assert not ok and "'auto', 'depth', 'uniform'" in body["message"] and "'gaussian'" in body["message"]
-    ok, body = query(
+    ok, body = query_json(
         session, keys.calibrator_op("solve"), json.dumps({"noise": "depth", "correction": "depth_scale"})
     )
     assert ok and body["camera_correction"]["model"] == "depth_scale" and body["noise_mm"] > 0
-    ok, body = query(session, keys.calibrator_op("solve"), json.dumps({"loss": "huber", "noise": "uniform"}))
+    ok, body = query_json(
+        session, keys.calibrator_op("solve"), json.dumps({"loss": "huber", "noise": "uniform"})
+    )
     assert ok and body["n_samples"] == 8
 
-    ok, body = query(session, keys.calibrator_op("save"))
+    ok, body = query_json(session, keys.calibrator_op("save"))
     assert ok and all(Path(f).is_file() for f in body["files"])
     assert "panda_link8 panda_camera" in (state / "camera_static_transform.launch").read_text()
 
@@ -151,22 +137,24 @@ def test_service_online_queries_errors_and_restart(
     proc2.wait_for_log("calibrator ready")
     assert "resumed 8 samples" in proc2.log()
     wait_until_served(session, keys)
-    ok, body = query(session, keys.calibrator_op("samples"))
+    ok, body = query_json(session, keys.calibrator_op("samples"))
     assert ok and len(body["samples"]) == 8
-    ok, body = query(session, keys.calibrator_op("result"))
+    ok, body = query_json(session, keys.calibrator_op("result"))
     assert ok and np.abs(np.array(body["matrix"]) - np.array(last.matrix)).max() < 1e-9
     assert (body["parent_frame"], body["child_frame"]) == ("tool_flange", "d435_color_optical_frame")
     assert "tool_flange d435_color_optical_frame" in body["ros1_static_transform"]
 
     # with too few samples left, no result of the removed samples is kept
-    ok, body = query(session, keys.calibrator_op("remove"), json.dumps({"sample_ids": [0, 1, 2, 3, 4, 5]}))
+    ok, body = query_json(
+        session, keys.calibrator_op("remove"), json.dumps({"sample_ids": [0, 1, 2, 3, 4, 5]})
+    )
     assert ok and len(body["samples"]) == 2
-    ok, body = query(session, keys.calibrator_op("result"))
+    ok, body = query_json(session, keys.calibrator_op("result"))
     assert not ok and "2 samples, at least 3 needed" in body["message"]
 
-    ok, body = query(session, keys.calibrator_op("reset"))
+    ok, body = query_json(session, keys.calibrator_op("reset"))
     assert ok and body["samples"] == []
-    ok, body = query(session, keys.calibrator_op("result"))
+    ok, body = query_json(session, keys.calibrator_op("result"))
     assert not ok and "no result yet" in body["message"]
     sub.undeclare()
     assert proc2.stop() == 0
@@ -202,8 +190,8 @@ def test_service_extracts_the_blob_from_camera_clouds(
     )
     proc.wait_for_log("no blob found", timeout=60)
     proc.wait_for_log("solved with 5 samples", timeout=60)
-    ok, body = query(session, keys.calibrator_op("result"))
+    ok, body = query_json(session, keys.calibrator_op("result"))
     assert ok and body["n_samples"] == 5 and body["parent_frame"] == "panda_link8"
     assert np.linalg.norm(np.array(body["translation"]) - cal_session.T_flange_cam[:3, 3]) < 0.005
-    ok, body = query(session, keys.status("calibrator"))
+    ok, body = query_json(session, keys.status("calibrator"))
     assert ok and body["counters"]["dropped_clouds"] == 0 and body["counters"]["samples"] == 5

@@ -6,7 +6,6 @@ carry the poses' stamps; ``sofia camera record`` writes an MCAP the replayer rea
 from __future__ import annotations
 
 import subprocess
-import sys
 import threading
 import time
 from pathlib import Path
@@ -28,7 +27,8 @@ from sofia_schemas.messages import Detection, FlangePose, ServiceStatus
 from sofia_schemas.rosmsg import encode_flange_pose
 from sofia_schemas.transforms import invert, matrix_to_quat_xyzw
 
-SOFIA = str(Path(sys.executable).with_name("sofia"))
+from ..conftest import SOFIA
+
 SEED = 5
 DETECTOR_MAX_ERROR_M = 0.008  # the detector's accuracy target: p95 <= 5 mm, max <= 8 mm
 

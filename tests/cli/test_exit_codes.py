@@ -5,13 +5,12 @@ from __future__ import annotations
 
 import os
 import subprocess
-import sys
 from pathlib import Path
 
 import pytest
 from sofia_schemas import cli
 
-SOFIA = str(Path(sys.executable).with_name("sofia"))
+from ..conftest import SOFIA
 
 # in this process (fast): argv (with {tmp} and {robot} filled in), exit code, text the error must contain
 IN_PROCESS: list[tuple[list[str], int, str]] = [

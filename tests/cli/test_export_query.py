@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import json
 import subprocess
-import sys
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -15,7 +14,8 @@ import numpy as np
 from sofia_replay.mcap_io import iter_messages, read_truth
 from sofia_schemas.keys import TOPIC_POINTS
 
-SOFIA = str(Path(sys.executable).with_name("sofia"))
+from ..conftest import SOFIA
+
 TIMEOUT_S = 300  # generous: the machine is shared
 
 

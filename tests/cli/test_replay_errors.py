@@ -7,7 +7,6 @@ import itertools
 import json
 import os
 import subprocess
-import sys
 import threading
 import time
 from pathlib import Path
@@ -22,7 +21,8 @@ from sofia_schemas import FlangePose, Keys
 from sofia_schemas.keys import TOPIC_FLANGE_POSE
 from sofia_schemas.zenoh_config import open_session
 
-SOFIA = str(Path(sys.executable).with_name("sofia"))
+from ..conftest import SOFIA
+
 T0 = 1_700_000_000_000_000_000
 PERIOD = 50_000_000
 N = 6

@@ -7,10 +7,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-import zenoh
 from sofia_replay.synth import SceneFrame, make_scene, render_scene
 from sofia_schemas import Board
-from sofia_schemas.zenoh_config import zenoh_config
 
 
 @dataclass
@@ -35,13 +33,6 @@ SCENES = {
     "nonred": ("nonred", "box", (1, 2)),
     "two": ("two", None, None),
 }
-
-
-@pytest.fixture
-def session():  # type: ignore[no-untyped-def]
-    """A Zenoh session of the test process, as a client of the service under test."""
-    with zenoh.open(zenoh_config()) as s:
-        yield s
 
 
 @pytest.fixture(scope="session")

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import json
 import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -13,9 +12,8 @@ import pytest
 from sofia_replay import read_truth
 from sofia_replay.synth import DEFAULT_T_FLANGE_CAM, write_scene_set
 
+from ..conftest import SOFIA
 from .conftest import write_pcl_ascii
-
-SOFIA = str(Path(sys.executable).with_name("sofia"))
 
 
 def run(*args: str) -> subprocess.CompletedProcess[str]:

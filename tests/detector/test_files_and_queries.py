@@ -4,7 +4,6 @@ detect queries that select objects by colour."""
 from __future__ import annotations
 
 import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -15,9 +14,8 @@ from sofia_detector.selection import BadSelection, select, split_selection
 from sofia_schemas import Board
 from sofia_schemas.messages import DetectedObject, Detection
 
+from ..conftest import SOFIA
 from .conftest import write_pcl_ascii
-
-SOFIA = str(Path(sys.executable).with_name("sofia"))
 
 
 def test_pcd_header_grid() -> None:

@@ -8,21 +8,14 @@ import signal
 import subprocess
 import threading
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 
 import pytest
 import zenoh
 from sofia_schemas.keys import ENCODING_JSON, Keys
 from sofia_schemas.messages import ErrorReply, GripperResult, GripperState, ServiceStatus
-from sofia_schemas.zenoh_config import zenoh_config
 
 from ..conftest import SOFIA, Proc
-
-
-@pytest.fixture
-def session() -> Iterator[zenoh.Session]:
-    with zenoh.open(zenoh_config()) as s:
-        yield s
 
 
 def query(session: zenoh.Session, key: str, payload: bytes, timeout: float = 10.0) -> zenoh.Reply:

@@ -8,7 +8,6 @@ import os
 import shutil
 import socket
 import subprocess
-import sys
 import time
 import uuid
 from collections.abc import Iterator
@@ -18,8 +17,9 @@ from pathlib import Path
 import pytest
 import zenoh
 
+from ..conftest import SOFIA
+
 REPO = Path(__file__).resolve().parents[2]
-SOFIA = str(Path(sys.executable).with_name("sofia"))
 USERS = ("calibrator", "detector", "gripper", "camera", "replay", "arm", "operator", "sofia")
 
 

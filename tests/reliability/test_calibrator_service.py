@@ -7,11 +7,9 @@ import json
 import resource
 import threading
 import time
-from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
-import pytest
 import zenoh
 from sofia_calibrator.online import make_sample
 from sofia_calibrator.sample_log import encode
@@ -24,6 +22,8 @@ from sofia_schemas.messages.calibration import CalibrationSample
 from sofia_schemas.rosmsg import encode_blob, encode_flange_pose
 from sofia_schemas.zenoh_config import open_session
 
+from ..conftest import query_json
+
 T0_NS = 1_700_000_000_000_000_000
 
 
@@ -33,37 +33,22 @@ def samples(n: int, seed: int = 3) -> list[CalibrationSample]:
     return [make_sample(T0_NS + k, pr.p_cam[k], pr.T_base_flange[k]) for k in range(n)]
 
 
-@pytest.fixture
-def session() -> Iterator[zenoh.Session]:
-    with open_session() as s:
-        yield s
-
-
-def query(session: zenoh.Session, key: str, payload: str | None = None) -> tuple[bool, dict]:  # type: ignore[type-arg]
-    """(ok, JSON body) of the first reply (a reply is an error reply when not ok)."""
-    replies = client.query(session, key, payload, timeout=30.0)
-    assert replies, f"no reply to {key}"
-    ok, err = replies[0].ok, replies[0].err
-    body = ok.payload.to_bytes() if ok is not None else err.payload.to_bytes() if err is not None else b"{}"
-    return ok is not None, json.loads(body)
-
-
 def start(sofia_proc, session: zenoh.Session, keys: Keys, state: Path):  # type: ignore[no-untyped-def]
     proc = sofia_proc("calibrator", "serve", "--state-dir", str(state))
     proc.wait_for_log("calibrator ready", timeout=40)
-    assert client.query(session, keys.calibrator_op("samples"), timeout=40.0), "calibrator not reachable"
+    assert client.query_json(session, keys.calibrator_op("samples"), timeout=40.0), "calibrator not reachable"
     return proc
 
 
 def ids(session: zenoh.Session, keys: Keys) -> list[int]:
-    ok, body = query(session, keys.calibrator_op("samples"))
+    ok, body = query_json(session, keys.calibrator_op("samples"))
     assert ok, body
     return [s["sample_id"] for s in body["samples"]]
 
 
 def add(session: zenoh.Session, keys: Keys, sample: CalibrationSample, **change: object) -> tuple[bool, dict]:  # type: ignore[type-arg]
     s = sample.model_dump(mode="json") | change
-    return query(session, keys.calibrator_op("add"), json.dumps(s))
+    return query_json(session, keys.calibrator_op("add"), json.dumps(s))
 
 
 def write_log(state: Path, n: int) -> None:
@@ -92,7 +77,7 @@ def test_damaged_log_loads_the_rest_reports_it_and_keeps_new_samples(
 
     proc = start(sofia_proc, session, keys, state)
     assert ids(session, keys) == [0, 1, 2, 3, 4, 5]  # the removed sample is back: status says so
-    ok, status = query(session, keys.status("calibrator"))
+    ok, status = query_json(session, keys.status("calibrator"))
     assert ok and status["state"] == "degraded" and "samples may be inconsistent" in status["detail"]
     assert status["counters"]["damaged_lines"] == 2 and status["counters"]["torn_bytes"] > 0
     assert status["info"]["samples_consistent"] is False
@@ -104,9 +89,9 @@ def test_damaged_log_loads_the_rest_reports_it_and_keeps_new_samples(
     proc.kill()
     proc2 = start(sofia_proc, session, keys, state)
     assert ids(session, keys) == [0, 1, 2, 3, 4, 5, *(b["samples"][0]["sample_id"] for _, b in acked)]
-    ok, body = query(session, keys.calibrator_op("reset"))  # the operator starts over
+    ok, body = query_json(session, keys.calibrator_op("reset"))  # the operator starts over
     assert ok and body["samples"] == []
-    ok, status = query(session, keys.status("calibrator"))
+    ok, status = query_json(session, keys.status("calibrator"))
     assert ok and status["info"]["samples_consistent"] is True and status["counters"]["torn_bytes"] == 0
     assert proc2.stop() == 0
 
@@ -131,7 +116,7 @@ def test_refused_operations_are_absent_and_acknowledged_ones_durable(
                            ({"stamp_ns": 10**400}, "401 digits")):  # fmt: skip
         ok, body = add(session, keys, samples(41)[40], **change)
         assert not ok and body["error"] == "ImplausibleSample" and reason in body["message"], body
-    ok, body = query(session, keys.calibrator_op("remove"), json.dumps({"sample_ids": [0, 999999]}))
+    ok, body = query_json(session, keys.calibrator_op("remove"), json.dumps({"sample_ids": [0, 999999]}))
     assert not ok and "no sample with id 999999: nothing removed" in body["message"], body
     assert ids(session, keys) == list(range(40))
 
@@ -140,19 +125,19 @@ def test_refused_operations_are_absent_and_acknowledged_ones_durable(
     resource.prlimit(proc.popen.pid, resource.RLIMIT_FSIZE, (size + 10, hard))
     ok, body = add(session, keys, samples(41)[40])
     assert not ok and "write failed, nothing written" in body["message"], body
-    ok, body = query(session, keys.calibrator_op("remove"), json.dumps({"sample_ids": [3]}))
+    ok, body = query_json(session, keys.calibrator_op("remove"), json.dumps({"sample_ids": [3]}))
     assert not ok and "write failed" in body["message"]
     resource.prlimit(proc.popen.pid, resource.RLIMIT_FSIZE, (hard, hard))
     assert (state / "samples.jsonl").stat().st_size == size
     ok, body = add(session, keys, samples(42)[41])
     assert ok and body["samples"][0]["sample_id"] == 40
-    ok, status = query(session, keys.status("calibrator"))
+    ok, status = query_json(session, keys.status("calibrator"))
     assert ok and status["counters"]["write_errors"] == 2 and status["state"] != "error"
 
     proc.kill()
     proc2 = start(sofia_proc, session, keys, state)
     assert ids(session, keys) == list(range(41))  # exactly what was acknowledged
-    ok, status = query(session, keys.status("calibrator"))
+    ok, status = query_json(session, keys.status("calibrator"))
     assert status["counters"]["damaged_lines"] == 0 and status["counters"]["torn_bytes"] == 0
     assert proc2.stop() == 0
 
@@ -172,7 +157,7 @@ def test_burst_is_solved_once_and_queries_are_answered_during_a_blob_flood(
         ok, body = add(session, keys, sample)
         assert ok, body
     per_add_ms = (time.monotonic() - t0) / 20 * 1e3
-    ok, body = query(session, keys.calibrator_op("result"))  # the result of all 120 samples
+    ok, body = query_json(session, keys.calibrator_op("result"))  # the result of all 120 samples
     assert ok and body["n_samples"] == 120, body
     print(f"time per add at 100 samples: {per_add_ms:.1f} ms")
     assert proc.log().count("calibrator: solved with 1") <= 6, proc.log()[-3000:]  # one per add was 21
@@ -210,7 +195,7 @@ def test_burst_is_solved_once_and_queries_are_answered_during_a_blob_flood(
         deadline = time.monotonic() + 20.0  # flood on until the event queue has overflowed
         while (
             time.monotonic() < deadline
-            and not query(session, keys.status("calibrator"))[1]["counters"]["dropped_blobs"]
+            and not query_json(session, keys.status("calibrator"))[1]["counters"]["dropped_blobs"]
         ):
             time.sleep(0.2)
     finally:
@@ -219,7 +204,7 @@ def test_burst_is_solved_once_and_queries_are_answered_during_a_blob_flood(
     assert all(len(r) == 1 for r in replies), [len(r) for r in replies]  # never silence
     busy = [json.loads(r[0].err.payload.to_bytes()) for r in replies if r[0].err is not None]
     assert busy and all(b["error"] == "CalibratorBusy" and "busy, retry" in b["message"] for b in busy)
-    ok, status = query(session, keys.status("calibrator"))
+    ok, status = query_json(session, keys.status("calibrator"))
     c = status["counters"]
     assert ok and c["dropped_queries"] == len(busy) and c["dropped_blobs"] > 0, c
     print(f"blob flood of {time.monotonic() - t_flood:.1f} s: {c['dropped_blobs']} blobs dropped, "

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import subprocess
-import sys
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -18,7 +17,8 @@ from sofia_replay.errors import BadBagError, BadMappingError, RecordingNotFoundE
 from sofia_schemas import Keys, pointcloud, rosmsg
 from sofia_schemas.keys import TOPIC_FLANGE_POSE, TOPIC_POINTS
 
-SOFIA = str(Path(sys.executable).with_name("sofia"))
+from ..conftest import SOFIA
+
 PC2 = "sensor_msgs/msg/PointCloud2"
 T0 = 1_650_000_000_000_000_000
 PERIOD = 50_000_000

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import json
 import subprocess
-import sys
 from pathlib import Path
 from typing import Any
 
@@ -16,7 +15,7 @@ from pydantic import ValidationError
 from rosbags.typesys import Stores, get_typestore
 from sofia_schemas import ALL_MESSAGES, SCHEMA_VERSION, BlobObservation, FlangePose, PayloadError, rosmsg
 
-SOFIA = str(Path(sys.executable).with_name("sofia"))
+from ..conftest import SOFIA
 
 
 def test_schema_export_command(tmp_path: Path) -> None:

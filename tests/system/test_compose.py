@@ -38,9 +38,10 @@ from packaging.utils import canonicalize_name
 from sofia_schemas.keys import Keys
 from sofia_schemas.zenoh_config import resolve, zenoh_config
 
+from ..conftest import SOFIA
+
 REPO = Path(__file__).resolve().parents[2]
 SCHEMA = Path(__file__).with_name("data") / "compose-spec.json"
-SOFIA = str(Path(sys.executable).with_name("sofia"))
 ROUTER = "zenoh"
 RESTART_POLICIES = {"unless-stopped", "on-failure", "always"}
 _VAR = re.compile(r"\$\{(\w+)(?::?-([^}]*))?\}")

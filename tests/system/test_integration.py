@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import os
 import subprocess
-import sys
 import time
 import uuid
 from collections.abc import Iterator
@@ -37,7 +36,8 @@ from sofia_schemas.messages import (
 )
 from sofia_schemas.transforms import rotation_angle
 
-SOFIA = str(Path(sys.executable).with_name("sofia"))
+from ..conftest import SOFIA
+
 CENTRE_TOL_M = 0.008
 
 

@@ -36,13 +36,11 @@ APPROACH_RAD = 0.02  # corrections come from this far below the command, on ever
 SETTLE_S = 0.3  # after a motion, wait this much of the robot's clock (the joints' servo settles) ...
 SETTLE_MEAN_S = 0.2  # ... then average the joint positions over this much
 FAULT_MODES = {"Reflex", "UserStopped", "AutomaticErrorRecovery", "Other"}
-# A motion during which no new robot state arrives for this long, the link being up, is stuck
-# (seen in the simulated cell after a host stall; a dead link is libfranka's UDP time-out instead)
+# A motion without a new robot state for this long, the link up, is stuck (a dead link: libfranka's UDP time-out)
 STATE_SILENCE_S = 5.0
-# Robot time between one motion's end and the next one's start. libfranka sends a finished motion's
-# last command until it sees the robot idle; franky-sim reading a late one after the next Move ended
-# the new motion at once, libfranka's startMotion took that reply, and its control loop then waited
-# for it forever (gdb: ControlLoop::loop -> throwOnMotionError -> tcpBlockingReceiveResponse<Move>).
+# Robot time between one motion's end and the next one's start: franky-sim reading the previous
+# motion's late finish command after the next Move ended the new one at once, and libfranka waited
+# forever for a reply it had already taken (README: "A stall of the cell, found and fixed").
 MOTION_GAP_S = 0.02
 
 
@@ -133,7 +131,8 @@ class Controller:
         the robot then sends states again, the motion counts as ended (the caller measures where
         the arm is), else the connection is lost. It starts ``MOTION_GAP_S`` after the last one ended."""
         try:
-            self._wait_motion_gap(token)
+            if self._wait_motion_gap(token):
+                return token.status or "failed", token.reason
             robot.move(motion, asynchronous=True)  # type: ignore[call-overload]
             heard = (self._robot_ns(), time.monotonic())
             while True:
@@ -157,11 +156,12 @@ class Controller:
         finally:
             self._motion_ended_ns = self._robot_ns()
 
-    def _wait_motion_gap(self, token: Token) -> None:
-        """Wait until the robot's clock is ``MOTION_GAP_S`` past the end of the last motion."""
+    def _wait_motion_gap(self, token: Token) -> bool:
+        """Wait until the robot's clock is ``MOTION_GAP_S`` past the last motion's end; True if the command ended."""
         gap_ns = self._motion_ended_ns + int(MOTION_GAP_S * 1e9) - self._robot_ns()
         if gap_ns > 0:
             self.wait_robot_time(token, gap_ns / 1e9)
+        return token.ended()
 
     def _robot_ns(self) -> int:
         latest = self.link.latest

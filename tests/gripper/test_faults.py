@@ -6,9 +6,13 @@ import time
 
 import pytest
 from sofia_gripper import Emulator, Gripper, GripperError, NotReady
+from sofia_gripper.bus import DxlBus
+from sofia_gripper.control_table import MODEL
+from sofia_gripper.errors import CommFailed
+from sofia_gripper.service import EMULATED_REPLY_MARGIN_MS
 from sofia_schemas.messages import GripperCommand as Cmd
 
-from .conftest import make_config, wait_until
+from .conftest import BAUD, make_config, wait_until
 
 
 @pytest.mark.parametrize(
@@ -142,3 +146,26 @@ def test_protocol1_overload_is_reported_and_torque_on_rearms(emulator_p1: Emulat
         assert g.execute(Cmd(action="close")).ok
     finally:
         g.close()
+
+
+def test_a_late_servo_is_waited_for_with_the_reply_margin(
+    emulator: Emulator, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """An emulated servo on a loaded host answers late: 80 ms here. dynamixel_sdk's own wait (about
+    35 ms) gives up; with the margin `serve --emulate` sets, the same exchange succeeds."""
+    handle = emulator._handle_bytes
+
+    def late(data: bytes, t_arrival: float) -> None:
+        time.sleep(0.08)
+        handle(data, time.monotonic())
+
+    monkeypatch.setattr(emulator, "_handle_bytes", late)
+    patient = DxlBus(emulator.path, BAUD, 2, 1, timeout_margin_ms=EMULATED_REPLY_MARGIN_MS)
+    patient.open()
+    assert patient.ping() == MODEL[2]
+    patient.close()
+    hasty = DxlBus(emulator.path, BAUD, 2, 1)
+    hasty.open()
+    with pytest.raises(CommFailed, match="ping"):
+        hasty.ping()
+    hasty.close()

@@ -36,7 +36,7 @@ def samples(n: int, seed: int = 3) -> list[CalibrationSample]:
 def start(sofia_proc, session: zenoh.Session, keys: Keys, state: Path):  # type: ignore[no-untyped-def]
     proc = sofia_proc("calibrator", "serve", "--state-dir", str(state))
     proc.wait_for_log("calibrator ready", timeout=40)
-    assert client.query_json(session, keys.calibrator_op("samples"), timeout=40.0), "calibrator not reachable"
+    assert client.query(session, keys.calibrator_op("samples"), timeout=40.0), "calibrator not reachable"
     return proc
 
 

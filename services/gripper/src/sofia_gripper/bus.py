@@ -21,11 +21,29 @@ from .control_table import ALERT_BIT_P2, HW_ERROR_MASK_P1, STATE_BLOCK, Protocol
 from .errors import CommFailed, LineLost, ServoRefused
 
 
-class DxlBus:
-    """One servo ``dxl_id`` on ``port`` at ``baud``, ``protocol`` 1 or 2. Thread-safe."""
+class MarginPort(PortHandler):
+    """dynamixel_sdk's port with ``margin_ms`` added to every status-packet timeout (the SDK's
+    allows for the adapter's 16 ms latency timer, not for a servo process on a loaded host)."""
 
-    def __init__(self, port: str, baud: int, protocol: Protocol, dxl_id: int) -> None:
+    margin_ms = 0.0
+
+    def setPacketTimeout(self, packet_length: int) -> None:
+        super().setPacketTimeout(packet_length)
+        self.packet_timeout += self.margin_ms
+
+    def setPacketTimeoutMillis(self, msec: float) -> None:
+        super().setPacketTimeoutMillis(msec + self.margin_ms)
+
+
+class DxlBus:
+    """One servo ``dxl_id`` on ``port`` at ``baud``, ``protocol`` 1 or 2. Thread-safe.
+    ``timeout_margin_ms`` lengthens the wait for each status packet (see :class:`MarginPort`)."""
+
+    def __init__(
+        self, port: str, baud: int, protocol: Protocol, dxl_id: int, timeout_margin_ms: float = 0.0
+    ) -> None:
         self.port_name, self.baud, self.protocol, self.dxl_id = port, baud, protocol, dxl_id
+        self.timeout_margin_ms = timeout_margin_ms
         self.table = fields(protocol)
         self.ph = PacketHandler(float(protocol))
         self.port: PortHandler | None = None
@@ -36,7 +54,8 @@ class DxlBus:
     def open(self) -> None:
         with self.lock:
             self.close()
-            port = PortHandler(self.port_name)
+            port = MarginPort(self.port_name)
+            port.margin_ms = self.timeout_margin_ms
             try:
                 if not port.setBaudRate(self.baud):
                     raise CommFailed(f"open {self.port_name!r}", f"baud rate {self.baud} not supported")

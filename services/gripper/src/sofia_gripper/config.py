@@ -45,6 +45,9 @@ class GripperConfig(BaseModel):
     position_tolerance_ticks: int = Field(default=15, ge=1)
     stall_time_s: float = Field(default=0.08, gt=0)
     reconnect_period_s: float = Field(default=0.5, gt=0)
+    # added to dynamixel_sdk's wait for each status packet; `serve --emulate` sets 200 ms (the
+    # emulated servo is a process on the same, possibly loaded host; a real servo answers in < 1 ms)
+    reply_margin_ms: float = Field(default=0.0, ge=0, le=1000)
 
     @model_validator(mode="after")
     def _check(self) -> GripperConfig:

@@ -35,7 +35,7 @@ class Gripper:
         self.config, self.on_state = config, on_state
         self.kin = config.kinematics()
         self.units = UNITS[config.protocol]
-        self.bus = DxlBus(config.port, config.baud, config.protocol, config.dxl_id)
+        self.bus = DxlBus(config.port, config.baud, config.protocol, config.dxl_id, config.reply_margin_ms)
         self.cond = threading.Condition()
         self.state = GripperState(stamp_ns=now_ns(), connected=False, status="disconnected")
         self.seq = 0

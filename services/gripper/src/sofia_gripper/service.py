@@ -43,6 +43,7 @@ from .errors import GripperError
 
 log = logging.getLogger(__name__)
 IMMEDIATE = {"stop", "state"}
+EMULATED_REPLY_MARGIN_MS = 200.0  # the emulator is a process on this host: a loaded host delays its replies
 
 
 @dataclass
@@ -153,7 +154,8 @@ def main(config: ServiceConfig) -> int:
             tmp = cleanup.enter_context(tempfile.TemporaryDirectory(prefix="sofia-gripper-"))
             emulator = start_emulator(gconf, config.object_width_mm, Path(tmp))
             cleanup.callback(emulator.stop)
-            gconf = gconf.model_copy(update={"port": emulator.path})
+            margin = max(gconf.reply_margin_ms, EMULATED_REPLY_MARGIN_MS)
+            gconf = gconf.model_copy(update={"port": emulator.path, "reply_margin_ms": margin})
         session = cleanup.enter_context(zenoh.open(zenoh_config(config.zenoh)))
         state_pub = session.declare_publisher(keys.gripper_state)
 

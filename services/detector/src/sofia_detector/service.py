@@ -83,9 +83,7 @@ class Detector:
             self.transform_name = f"file {config.transform_file}"
             self.transform_pinned = True
         self.latest: Detection | None = None
-        self.counters = dict.fromkeys(
-            ("processed", "errors", "queries", "query_errors", "no_transform", "bad_clouds"), 0
-        )
+        self.counters = dict.fromkeys(("processed", "errors", "queries", "query_errors"), 0)
         self.last_error = ""
         self.last_ms = 0.0
         self._lock = threading.Lock()
@@ -202,14 +200,10 @@ class Detector:
         try:
             det = self.detect_payload(job.payload, job.camera, job.key, job.corrected)
         except TransformUnavailable as e:
-            with self._lock:
-                self.counters["no_transform"] += 1
             self.drops.add(UNMAPPED, error_text(e))
             self._error(str(e))
             return
         except ValueError as e:
-            with self._lock:
-                self.counters["bad_clouds"] += 1
             self.drops.add(BAD, error_text(f"cloud on {job.key}: {e}"))
             self._error(f"cloud on {job.key}: {e}")
             return
@@ -251,8 +245,9 @@ class Detector:
 
     def status(self) -> ServiceStatus:
         with self._lock:
-            w = self.work
-            counters = dict(self.counters, received=w.received, dropped=w.dropped, busy_queries=w.busy)
+            w, d = self.work, self.drops
+            counters = dict(self.counters, received=w.received, dropped=w.dropped, busy_queries=w.busy,
+                            no_transform=d.count(UNMAPPED), bad_clouds=d.count(BAD))  # fmt: skip
             transform, detail = self.transform_name, self.last_error
         state, dropped = self.drops.state()
         return ServiceStatus(

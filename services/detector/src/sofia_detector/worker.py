@@ -63,7 +63,7 @@ class CloudJob:
 class WorkQueue(Generic[Q]):
     """Up to ``max_queries`` queries (each one queued is answered; :meth:`put_query` refuses more)
     and the newest ``backlog`` clouds (a put on a full queue drops the oldest cloud and counts it in
-    ``dropped`` and ``drops``), behind one condition variable."""
+    ``drops``), behind one condition variable."""
 
     def __init__(
         self, backlog: int = 1, drops: DropLog | None = None, max_queries: int = QUERIES_MAX
@@ -78,7 +78,6 @@ class WorkQueue(Generic[Q]):
         self._clouds: deque[CloudJob] = deque()
         self._closed = False
         self.received = 0
-        self.dropped = 0
         self.drops = drops if drops is not None else DropLog()
 
     def put_query(self, query: Q) -> int:
@@ -95,7 +94,6 @@ class WorkQueue(Generic[Q]):
         """Queue ``job``; returns the cloud dropped to make room (None when there was room)."""
         with self._cond:
             old = self._clouds.popleft() if len(self._clouds) == self.backlog else None
-            self.dropped += old is not None
             self._clouds.append(job)
             self.received += 1
             self._cond.notify()
@@ -140,6 +138,11 @@ class WorkQueue(Generic[Q]):
         wait = pose_wait(self._clouds[0])
         return self._clouds.popleft() if wait <= 0 else wait
 
+    @property
+    def dropped(self) -> int:
+        """Clouds dropped to make room for newer ones."""
+        return self.drops.count(STALE)
+
     def __len__(self) -> int:
         return len(self._clouds)
 
@@ -153,10 +156,15 @@ class DropLog:
         self._last: dict[str, tuple[float, str]] = {}
         self._lock = threading.Lock()
 
-    def add(self, reason: str, message: str, n: int = 1) -> None:
+    def add(self, reason: str, message: str) -> None:
         with self._lock:
-            self.counts[reason] = self.counts.get(reason, 0) + n
+            self.counts[reason] = self.counts.get(reason, 0) + 1
             self._last[reason] = (time.monotonic(), message)
+
+    def count(self, reason: str) -> int:
+        """Inputs dropped for ``reason`` so far."""
+        with self._lock:
+            return self.counts.get(reason, 0)
 
     def recent(self) -> list[tuple[str, int, str]]:
         """(reason, total count, last message) of the reasons with a drop within the window."""

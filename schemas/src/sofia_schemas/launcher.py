@@ -24,6 +24,7 @@ from .client import QueryError, ask
 from .keys import Keys, default_robot
 from .messages import ServiceStatus
 from .output import add_json_option, emit
+from .ros2.cli import enabled as ros2_enabled
 from .service import StopFlag
 from .zenoh_config import DEFAULT_ROUTER_LISTEN, ZenohOptions, add_zenoh_args, zenoh_config
 
@@ -187,7 +188,7 @@ def default_specs(args: argparse.Namespace) -> list[ServiceSpec]:
     if "arm" in args.services:  # the Franka (opt-in: --services ...,arm), or franky-sim without --robot-ip
         robot = ["--robot-ip", args.robot_ip] if getattr(args, "robot_ip", None) else ["--sim"]
         specs.append(ServiceSpec("arm", ["arm", "serve", *robot], "arm"))
-    if getattr(args, "ros2", False) or os.environ.get("SOFIA_ROS2", "") in ("1", "true", "yes", "on"):
+    if getattr(args, "ros2", False) or ros2_enabled():
         specs.append(ServiceSpec("ros2", ["ros2", "serve"], "ros2"))  # SofIA on the ROS 2 graph (rmw_zenoh)
     return specs
 

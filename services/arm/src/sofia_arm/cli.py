@@ -166,7 +166,7 @@ def describe_result(result: ArmResult) -> str:
              + f", {result.duration_s:.1f} s"]  # fmt: skip
     if result.position is not None:
         lines.append(f"  flange at {_pose(result.position, result.quaternion_xyzw)} (base frame)")
-    lines += [f"  {'ok  ' if p.status == 'done' else 'FAIL'} {p.name}: {p.reason}" for p in result.phases]
+    lines += [f"  {p.line()}" for p in result.phases]
     return "\n".join(lines)
 
 

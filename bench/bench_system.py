@@ -33,20 +33,16 @@ import uuid
 from pathlib import Path
 
 import numpy as np
+from sofia_schemas.memory import rss_bytes
 
 REPO = Path(__file__).resolve().parents[1]
 SOFIA = str(Path(sys.executable).with_name("sofia"))
 CLK_TCK = os.sysconf("SC_CLK_TCK")
-PAGE = os.sysconf("SC_PAGE_SIZE")
 
 
 def cpu_seconds(pid: int) -> float:
     fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
     return (int(fields[11]) + int(fields[12])) / CLK_TCK
-
-
-def rss_mb(pid: int) -> float:
-    return int(Path(f"/proc/{pid}/statm").read_text().split()[1]) * PAGE / 1e6
 
 
 def subscriber(robot: str, seconds: float, out: Path) -> None:
@@ -190,7 +186,7 @@ def main() -> int:
     sub = start([sys.executable, __file__, "--subscriber", robot, str(sub_s), str(out)], env, tmp / "sub.log")
     wait_log(tmp / "sub.log", "subscriber ready")
     time.sleep(1.0)
-    rss0 = rss_mb(det.pid)
+    rss0 = rss_bytes(det.pid) / 1e6
     preload = [] if a.no_preload else ["--preload"]
     play = start(
         [SOFIA, "replay", "play", str(rec), "--loop", "--restamp", *preload], env, tmp / "replay.log"
@@ -205,7 +201,7 @@ def main() -> int:
     rss_samples = [rss0]
     while time.monotonic() - t0 < a.seconds:
         time.sleep(min(5.0, a.seconds))
-        rss_samples.append(rss_mb(det.pid))
+        rss_samples.append(rss_bytes(det.pid) / 1e6)
     cpu1 = {
         "replay": cpu_seconds(play.pid),
         "detector": cpu_seconds(det.pid),

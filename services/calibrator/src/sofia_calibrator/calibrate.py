@@ -69,12 +69,13 @@ def _validate(
     return p, T, g
 
 
-def _noise(p: np.ndarray, sigma: object, confidence: np.ndarray | None) -> NoiseModel:
-    """The noise model of the ``sigma`` option (see :func:`calibrate`), divided by ``confidence``."""
+def _noise(p: np.ndarray, sigma: object, confidence: np.ndarray | None, camera: np.ndarray) -> NoiseModel:
+    """The noise model of the ``sigma`` option (see :func:`calibrate`), divided by ``confidence``.
+    camera: (n, 3) the camera model's 1-sigma of the samples ``p`` (:func:`camera_sigma`), metres."""
     if sigma is None or (isinstance(sigma, str) and sigma == "auto"):
-        model = NoiseModel(camera_sigma(p), True, ISOTROPIC_PRIOR_M)
+        model = NoiseModel(camera, True, ISOTROPIC_PRIOR_M)
     elif isinstance(sigma, str) and sigma == "depth":
-        model = NoiseModel(camera_sigma(p), False, 1.0)
+        model = NoiseModel(camera, False, 1.0)
     elif isinstance(sigma, str) and sigma == "uniform":
         model = NoiseModel(np.full_like(p, 1e-3), False, 1.0)
     elif isinstance(sigma, str):
@@ -155,9 +156,10 @@ def calibrate(
     if loss not in LOSSES:
         raise InputMismatch(f"loss must be one of {LOSSES}, got {loss!r}")
     p, T, g = _validate(p_cam, T_base_flange, guess)
-    noise = _noise(p, sigma, confidence)
+    camera = camera_sigma(p)
+    noise = _noise(p, sigma, confidence, camera)
     warnings = dg.check_motion(T)
-    prob = Problem(p, T, noise, g, loss, loss_scale, _models(correction), camera_sigma(p))
+    prob = Problem(p, T, noise, g, loss, loss_scale, _models(correction), camera)
     n = len(p)
     idx = np.arange(n)
     sel_all = prob.select(idx)
@@ -170,9 +172,9 @@ def calibrate(
     while len(kept) > keep_min:
         inf_sel = influence(sel.solution)
         inf_all = inf_sel if sel is sel_all else inf_all
-        pv = inf_sel.p_value
-        k = int(np.nanargmin(pv)) if np.isfinite(pv).any() else -1
-        if k < 0 or not pv[k] < outlier_alpha / len(kept):
+        pv = np.where(np.isnan(inf_sel.p_value), np.inf, inf_sel.p_value)
+        k = int(pv.argmin())
+        if not pv[k] < outlier_alpha / len(kept):
             break
         outliers.append(int(kept[k]))
         kept = np.delete(kept, k)

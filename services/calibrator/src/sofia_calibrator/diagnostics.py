@@ -14,6 +14,7 @@ WEAK_ROTATION_DEG = 10.0
 ONE_AXIS_RATIO = 0.3  # second rotation spread below this fraction of the first: one axis
 # Family-wise probability of calling a sample of a clean set a clear outlier.
 OUTLIER_ALPHA = 0.001
+DENSE_PAIRS_MAX = 256  # dissipation: pairwise distances as one (n, n) matrix up to this n
 
 
 def map_to_base(T_base_flange: np.ndarray, T_flange_cam: np.ndarray, p_cam: np.ndarray) -> np.ndarray:
@@ -37,7 +38,13 @@ def spread(p_base: np.ndarray) -> np.ndarray:
 
 
 def dissipation(p_base: np.ndarray) -> float:
-    """The lab's objective: sum over ordered pairs i != j of ||p_i - p_j||, metres."""
+    """The lab's objective: sum over ordered pairs i != j of ||p_i - p_j||, metres.
+
+    p_base: (n, 3) points. Up to ``DENSE_PAIRS_MAX`` points the (n, n) distance matrix at once
+    (fewest calls); above, scipy's pdist (n (n - 1) / 2 distances, no (n, n, 3) temporary)."""
+    if len(p_base) <= DENSE_PAIRS_MAX:
+        d = p_base[:, None, :] - p_base[None, :, :]
+        return float(np.sqrt(np.einsum("ijk,ijk->ij", d, d)).sum())
     from scipy.spatial.distance import pdist
 
     return float(2.0 * pdist(p_base).sum())
@@ -49,8 +56,8 @@ def std_from_covariance(R_flange_cam: np.ndarray, cov: np.ndarray) -> tuple[np.n
     cov: covariance of (theta (right perturbation, camera frame), t (flange frame, m), p_base).
     """
     cov_phi = R_flange_cam @ cov[:3, :3] @ R_flange_cam.T  # left perturbation: flange axes
-    std_rot = np.degrees(np.sqrt(np.clip(np.diag(cov_phi), 0.0, None)))
-    std_t = 1e3 * np.sqrt(np.clip(np.diag(cov[3:6, 3:6]), 0.0, None))
+    std_rot = np.degrees(np.sqrt(np.maximum(cov_phi.diagonal(), 0.0)))
+    std_t = 1e3 * np.sqrt(np.maximum(cov.diagonal()[3:6], 0.0))
     return std_t, std_rot
 
 
@@ -91,9 +98,9 @@ def check_motion(T_base_flange: np.ndarray) -> list[str]:
     only, the offset along that axis is not.
     """
     R = T_base_flange[:, :3, :3]
-    rel = so3.log(np.einsum("ji,njk->nik", R[0], R[1:]))
-    ev, vecs = np.linalg.eigh(rel.T @ rel)  # singular values of rel, squared, ascending
-    s = np.degrees(np.sqrt(np.clip(ev[::-1], 0.0, None))) / np.sqrt(max(len(rel), 1))
+    rel = so3.log(R[0].T @ R[1:])
+    ev = np.linalg.eigvalsh(rel.T @ rel)  # singular values of rel, squared, ascending
+    s = np.degrees(np.sqrt(np.maximum(ev[::-1], 0.0))) / np.sqrt(max(len(rel), 1))
     if s[0] < MIN_ROTATION_DEG:
         raise DegenerateMotion(
             f"the flange barely rotates between samples (largest rotation spread {s[0]:.2f} deg)",
@@ -101,7 +108,7 @@ def check_motion(T_base_flange: np.ndarray) -> list[str]:
             "two different axes while keeping the blob in view",
         )
     if s[1] < MIN_ROTATION_DEG and s[1] < ONE_AXIS_RATIO * s[0]:
-        axis = vecs[:, 2]
+        axis = np.linalg.eigh(rel.T @ rel)[1][:, 2]
         raise DegenerateMotion(
             f"all rotations are about one axis (flange axis {np.round(axis, 2).tolist()}, "
             f"spread about other axes {s[1]:.2f} deg)",

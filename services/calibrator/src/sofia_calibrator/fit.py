@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import lru_cache
 
 import numpy as np
 from scipy.special import stdtrit
@@ -12,8 +13,8 @@ from sofia_schemas.transforms import matrix_to_quat_xyzw, rpy_from_matrix
 from . import correction as cc
 from . import diagnostics as dg
 from . import so3
-from .influence import inverse
-from .noise import NoiseModel
+from .linalg import inverse
+from .noise import NoiseModel, rms_mm
 from .solver import Solution, refine, solve
 
 
@@ -117,7 +118,7 @@ class Problem:
         noise = self.noise.estimated(ref.errors, idx, 3 * m - 9 - cc.N_EXTRA[self.models[0]])
         sigma = noise.sigma(idx)
         models = self.models if m >= cc.MIN_SAMPLES_FOR_SCALE else self.models[:1]
-        steps = [_gauss_newton_step(ref, self.p_cam[idx], sigma0, sigma, model) for model in models]
+        steps = _gauss_newton_steps(ref, self.p_cam[idx], sigma0, sigma, models)
         cands = [
             cc.Candidate(
                 mo, st.chi2, 9 + len(st.beta), 3 * m, st.beta, st.beta_sigma if len(st.beta) else None
@@ -156,10 +157,9 @@ class Problem:
         cov[:9, :9] = sel.weight * cov[:9, :9] + sel.other_models9
         cov *= t_inflation(dof)
         std_t, std_r = dg.std_from_covariance(sol.R, cov)
-        beta_sigma = np.sqrt(np.clip(np.diag(cov)[9:], 0.0, None)) if len(sol.beta) else None
+        beta_sigma = np.sqrt(np.maximum(cov.diagonal()[9:], 0.0)) if len(sol.beta) else None
         sigma_all = noise.sigma() * np.sqrt(scale2)
-        noise_mm = float(1e3 * np.sqrt(np.mean(sigma_all[idx] ** 2)))
-        cam_mm = float(1e3 * np.sqrt(np.mean(self.camera[idx] ** 2)))
+        noise_mm, cam_mm = rms_mm(sigma_all[idx]), rms_mm(self.camera[idx])
         return Fit(
             T_flange_cam=T_fc, p_base=sol.p_base, samples=[int(i) for i in idx], mapped_base=mapped,
             mapped_start=mapped_start, residuals_mm=1e3 * np.linalg.norm(mapped - sol.p_base, axis=1),
@@ -187,21 +187,35 @@ def t_inflation(dof: int) -> float:
     return float(stdtrit(dof, 0.8413447460685429) ** 2) if dof > 0 else 1.0
 
 
-def _gauss_newton_step(
-    ref: Solution, p_cam: np.ndarray, sigma_ref: np.ndarray, sigma: np.ndarray, model: str
-) -> _Step:
-    """``model`` after one Gauss-Newton step from the reference solution (fitted under the noise
-    ``sigma_ref``), under the noise ``sigma`` (m, 3) metres."""
+def _gauss_newton_steps(
+    ref: Solution, p_cam: np.ndarray, sigma_ref: np.ndarray, sigma: np.ndarray, models: tuple[str, ...]
+) -> list[_Step]:
+    """Each of ``models`` after one Gauss-Newton step from the reference solution (fitted under the
+    noise ``sigma_ref``), under the noise ``sigma`` (m, 3) metres: one Jacobian with every model's
+    correction columns, each model's normal equations a principal block of it."""
     assert ref.J is not None
     m = len(p_cam)
     r = (ref.errors / sigma).ravel()
-    J = ref.J.reshape(m, 3, -1)[:, :, :9] * (sigma_ref / sigma)[:, :, None]
-    G = cc.columns(model, p_cam) / sigma[:, :, None]
-    Ja = np.concatenate([J, -G], axis=2).reshape(3 * m, -1)
-    g = Ja.T @ r
-    C = inverse(Ja.T @ Ja)
-    dx = -C @ g
-    chi2 = float(r @ r + g @ dx)
-    dof = 3 * m - Ja.shape[1]
-    s2 = chi2 / dof if dof > 0 else 1.0
-    return _Step(chi2, dx[:9], dx[9:], C[:9, :9] * s2, np.sqrt(np.clip(np.diag(C)[9:] * s2, 0.0, None)))
+    Gs = [cc.columns(model, p_cam) for model in models]
+    J = np.concatenate([ref.J.reshape(m, 3, -1)[:, :, :9] * (sigma_ref / sigma)[:, :, None], *Gs], axis=2)
+    J[:, :, 9:] /= -sigma[:, :, None]
+    J = J.reshape(3 * m, -1)
+    M, g_all, rr = J.T @ J, J.T @ r, float(r @ r)
+    steps = []
+    for cols in _blocks(tuple(G.shape[2] for G in Gs)):
+        C, g = inverse(M.take(cols, 0).take(cols, 1)), g_all.take(cols)
+        dx = -C @ g
+        chi2 = rr + float(g @ dx)
+        dof = 3 * m - len(cols)
+        s2 = chi2 / dof if dof > 0 else 1.0
+        beta_sigma = np.sqrt(np.maximum(C.diagonal()[9:] * s2, 0.0))
+        steps.append(_Step(chi2, dx[:9], dx[9:], C[:9, :9] * s2, beta_sigma))
+    return steps
+
+
+@lru_cache(maxsize=8)
+def _blocks(extra: tuple[int, ...]) -> list[np.ndarray]:
+    """Column indices of each model in the joint Jacobian: the 9 shared unknowns, then the model's
+    ``extra[i]`` correction columns (stacked after 9 in model order)."""
+    ends = 9 + np.cumsum(extra)
+    return [np.r_[0:9, e - k : e] for k, e in zip(extra, ends, strict=True)]

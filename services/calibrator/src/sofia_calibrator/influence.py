@@ -17,7 +17,10 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.special import fdtrc
 
+from .linalg import inverse
 from .solver import Solution
+
+_EYE3_REGULARISED = (1.0 + 1e-12) * np.eye(3)  # I, nudged so that I - H_ii stays invertible
 
 
 @dataclass
@@ -36,25 +39,14 @@ def influence(sol: Solution) -> Influence:
     C = inverse(sol.JtJ)
     JC = J @ C  # (m, 3, p)
     H = JC @ np.swapaxes(J, 1, 2)  # (m, 3, 3) diagonal blocks
-    IH = np.eye(3) - H
-    d = np.linalg.solve(IH + 1e-12 * np.eye(3), r[:, :, None])[:, :, 0]
+    d = np.linalg.solve(_EYE3_REGULARISED - H, r[:, :, None])[:, :, 0]  # (I - H_ii)^-1 r_i
     shift = np.einsum("map,ma->mp", JC, d)
     q = np.einsum("ma,ma->m", r, d)
     dof = 3 * m - p
-    rss = float(np.sum(r * r))
+    rss = float(np.vdot(r, r))
     if dof > 3:
         s2 = np.maximum(rss - q, 1e-300) / (dof - 3)
         pv = fdtrc(3, dof - 3, np.maximum(q, 0.0) / (3 * s2))
     else:
         pv = np.full(m, np.nan)
     return Influence(d, shift, np.asarray(pv))
-
-
-def inverse(A: np.ndarray) -> np.ndarray:
-    """Inverse of a symmetric information matrix; the pseudo-inverse when it is singular."""
-    try:
-        np.linalg.cholesky(A)  # raises unless positive definite
-        return np.asarray(np.linalg.inv(A))
-    except np.linalg.LinAlgError:
-        pass
-    return np.asarray(np.linalg.pinv(A))

@@ -45,10 +45,11 @@ def isotropic_component(errors: np.ndarray, camera: np.ndarray, dof: int, iterat
     """The isotropic noise s0 (metres) that, added to the camera's own noise, explains the residuals.
 
     errors: (n, 3) residuals, camera frame, metres; camera: (n, 3) the camera model's 1-sigma.
-    Solves sum e^2 / (s0^2 + c^2) = dof (the residual chi-square equals its expectation, a
-    REML-type moment equation) for s0 >= 0 by Newton's method on v = s0^2 (f is convex and
-    decreasing, so Newton from v = 0 converges monotonically). Returns 0 when the camera model
-    alone explains the residuals, and NaN when ``dof <= 0``.
+    Solves chi2(v) = sum e^2 / (v + c^2) = dof for v = s0^2 >= 0 (the residual chi-square equals
+    its expectation, a REML-type moment equation) by Newton's method on 1 / chi2(v), which is
+    concave and increasing (exactly linear when the camera term is negligible): from v = 0 the
+    steps approach the root from below, monotonically. Returns 0 when the camera model alone
+    explains the residuals, and NaN when ``dof <= 0``.
     """
     if dof <= 0:
         return float("nan")
@@ -56,10 +57,10 @@ def isotropic_component(errors: np.ndarray, camera: np.ndarray, dof: int, iterat
     v = 0.0
     for _ in range(iterations):
         w = 1.0 / (v + c2)
-        f = float(e2 @ w) - dof
-        if f <= 1e-9 * dof:
+        chi2 = float(e2 @ w)
+        if chi2 <= dof * (1.0 + 1e-9):
             break
-        v += f / float(e2 @ (w * w))
+        v += (chi2 - dof) * chi2 / (dof * float(e2 @ (w * w)))
     return float(np.sqrt(v))
 
 
@@ -92,6 +93,7 @@ class NoiseModel:
             level = float(np.sqrt(np.sum((errors / self.base[idx]) ** 2) / dof))
         return replace(self, level=max(level, 0.0))
 
-    def rms_mm(self, idx: np.ndarray) -> float:
-        """RMS 1-sigma per axis over the samples ``idx``, mm."""
-        return float(1e3 * np.sqrt(np.mean(self.sigma(idx) ** 2)))
+
+def rms_mm(sigma: np.ndarray) -> float:
+    """RMS 1-sigma per axis of (m, 3) metres, in mm."""
+    return 1e3 * float(np.sqrt(np.vdot(sigma, sigma) / sigma.size))

@@ -34,20 +34,23 @@ def exp(phi: np.ndarray) -> np.ndarray:
     ])  # fmt: skip
 
 
+_LOG_I, _LOG_J = [2, 0, 1], [1, 2, 0]  # R[i, j] - R[j, i]: the skew part of R as a vector
+
+
 def log(R: np.ndarray) -> np.ndarray:
     """Rotation vectors (..., 3) of rotation matrices (..., 3, 3), radians.
 
     From the skew part and the trace; rotations within 1e-3 rad of pi go through scipy (the skew
     part vanishes there)."""
     R = np.asarray(R, dtype=np.float64)
-    w = np.stack([R[..., 2, 1] - R[..., 1, 2], R[..., 0, 2] - R[..., 2, 0], R[..., 1, 0] - R[..., 0, 1]], -1)
-    cos = np.clip((np.trace(R, axis1=-2, axis2=-1) - 1.0) / 2.0, -1.0, 1.0)
-    sin = 0.5 * np.linalg.norm(w, axis=-1)
+    w = R[..., _LOG_I, _LOG_J] - R[..., _LOG_J, _LOG_I]  # 2 sin(theta) times the axis
+    cos = np.minimum(np.maximum((R[..., 0, 0] + R[..., 1, 1] + R[..., 2, 2] - 1.0) * 0.5, -1.0), 1.0)
+    sin = 0.5 * np.sqrt(np.einsum("...i,...i->...", w, w))
     theta = np.arctan2(sin, cos)
     f = np.where(sin > 1e-12, theta / np.maximum(2.0 * sin, 1e-300), 0.5 + theta**2 / 12.0)
     out = w * f[..., None]
     near_pi = theta > np.pi - 1e-3
-    if np.any(near_pi):
+    if near_pi.any():
         from scipy.spatial.transform import Rotation
 
         out[near_pi] = Rotation.from_matrix(R[near_pi]).as_rotvec()

@@ -16,10 +16,12 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from . import correction, so3
+from .linalg import spd_solve
 
 LOSSES = ("linear", "huber", "cauchy")
 # [u]x = u[:, _SKEW_IDX] * _SKEW_SIGN
 _SKEW_IDX = np.array([[0, 2, 1], [2, 0, 0], [1, 0, 0]])
+_MINUS_EYE3 = -np.eye(3)
 _SKEW_SIGN = np.array([[0.0, -1.0, 1.0], [1.0, 0.0, -1.0], [-1.0, 1.0, 0.0]])
 # Up to 5 samples the 15-unknown linear start is not over-determined; more starts are tried.
 MIN_LINEAR_SAMPLES = 5
@@ -57,13 +59,9 @@ def _least_squares(A: np.ndarray, b: np.ndarray) -> np.ndarray:
     if A.shape[0] >= 2 * A.shape[1]:
         scale = 1.0 / np.maximum(np.sqrt(np.einsum("ij,ij->j", A, A)), 1e-300)
         As = A * scale
-        N = As.T @ As
-        try:
-            x = np.linalg.solve(N, As.T @ b) * scale
-            if np.all(np.isfinite(x)):
-                return np.asarray(x)
-        except np.linalg.LinAlgError:
-            pass
+        x = spd_solve(As.T @ As, As.T @ b)
+        if x is not None:
+            return x * scale
     return np.asarray(np.linalg.lstsq(A, b, rcond=None)[0])
 
 
@@ -78,14 +76,13 @@ def linear_init(
     (R (3, 3), t (3,), p_base (3,)).
     """
     n = len(p_cam)
-    sw = np.sqrt(w)[:, None, None]
+    sw = np.sqrt(w)
     A = np.empty((n, 3, 15))
     A[:, :, :9] = (R_base_flange[:, :, :, None] * p_cam[:, None, None, :]).reshape(n, 3, 9)
     A[:, :, 9:12] = R_base_flange
-    A[:, :, 12:] = -np.eye(3)
-    A *= sw
-    b = -t_base_flange[:, :, None] * sw
-    x = _least_squares(A.reshape(-1, 15), b.ravel())
+    A[:, :, 12:] = _MINUS_EYE3
+    A *= sw[:, None, None]
+    x = _least_squares(A.reshape(-1, 15), (t_base_flange * -sw[:, None]).ravel())
     return so3.project(x[:9].reshape(3, 3)), x[9:12], x[12:]
 
 
@@ -125,72 +122,76 @@ def refine(
     """
     n = len(p_cam)
     Rt_fl = np.swapaxes(R_base_flange, 1, 2)
-    d_fl = -t_base_flange
+    q0 = -(Rt_fl @ t_base_flange[:, :, None])[:, :, 0]  # q = Rt_fl p_base + q0: blob, flange frame
     inv_sigma = 1.0 / sigma
     G = correction.columns(model, p_cam)
     k = G.shape[2]
+    minus_Gw = -G * inv_sigma[:, :, None]
     beta = np.zeros(k) if beta is None or len(beta) != k else np.asarray(beta, dtype=np.float64)
     ones = np.ones(n)
 
     def evaluate(
         R: np.ndarray, t: np.ndarray, p_base: np.ndarray, beta: np.ndarray
-    ) -> tuple[float, np.ndarray, np.ndarray]:
-        q = (Rt_fl @ (p_base + d_fl)[:, :, None])[:, :, 0]  # blob in the flange frame at each pose
-        eu = np.empty((n, 6))
-        eu[:, 3:] = (q - t) @ R  # u: predicted blob, camera frame
-        c = p_cam if k == 0 else p_cam + G @ beta
-        eu[:, :3] = (eu[:, 3:] - c) * inv_sigma  # whitened residual
+    ) -> tuple[float, np.ndarray, np.ndarray, np.ndarray]:
+        u = (Rt_fl @ p_base + (q0 - t)) @ R  # predicted blob, camera frame
+        r = (u - (p_cam if k == 0 else p_cam + G @ beta)) * inv_sigma  # whitened residual
         if loss == "linear":
-            return float(np.vdot(eu[:, :3], eu[:, :3])), eu, ones
-        rho, w = _robust(np.einsum("ni,ni->n", eu[:, :3], eu[:, :3]), loss, loss_scale)
-        return float(rho.sum()), eu, w
+            return float(np.vdot(r, r)), u, r, ones
+        rho, w = _robust(np.einsum("ni,ni->n", r, r), loss, loss_scale)
+        return float(rho.sum()), u, r, w
 
     def jacobian(R: np.ndarray, u: np.ndarray) -> np.ndarray:
         J = np.empty((n, 3, 9 + k))
         J[:, :, :3] = u[:, _SKEW_IDX] * _SKEW_SIGN  # [u]x
         J[:, :, 3:6] = -R.T
         J[:, :, 6:9] = R.T @ Rt_fl
-        J[:, :, 9:] = -G
-        J *= inv_sigma[:, :, None]
+        J[:, :, :9] *= inv_sigma[:, :, None]
+        J[:, :, 9:] = minus_Gw
         return J.reshape(3 * n, 9 + k)
 
-    cost, eu, w = evaluate(R, t, p_base, beta)
+    cost, u, r, w = evaluate(R, t, p_base, beta)
     lam = 1e-6
     it = 0
-    J = jacobian(R, eu[:, 3:])
+    J = jacobian(R, u)
+    H = J.T @ J
     converged = False
     while it < max_iter and not converged:
         it += 1
         Jw = J * np.repeat(w, 3)[:, None] if loss != "linear" else J
-        H = Jw.T @ J
-        g = Jw.T @ eu[:, :3].ravel()
-        dH = np.diag(H) + 1e-12
+        Hw = Jw.T @ J if loss != "linear" else H
+        g = Jw.T @ r.ravel()
+        dH = Hw.diagonal() + 1e-12
         while True:
-            dx = np.linalg.solve(H + np.diag(lam * dH), -g)
+            A = Hw.copy()
+            A.flat[:: 10 + k] += lam * dH
+            dx = spd_solve(A, -g)
+            if dx is None:  # not positive definite: a rank-deficient problem
+                dx = np.linalg.lstsq(A, -g, rcond=None)[0]
             # Gauss-Newton decrement: the cost decrease the step promises
             if -float(g @ dx) <= tol * max(cost, 1e-12):
                 converged = True
                 break
             R_new = R @ so3.exp(dx[:3])
             t_new, p_new, b_new = t + dx[3:6], p_base + dx[6:9], beta + dx[9:]
-            cost_new, eu_new, w_new = evaluate(R_new, t_new, p_new, b_new)
+            cost_new, u_new, r_new, w_new = evaluate(R_new, t_new, p_new, b_new)
             if cost_new <= cost:
-                R, t, p_base, beta, cost, eu, w = R_new, t_new, p_new, b_new, cost_new, eu_new, w_new
+                R, t, p_base, beta, cost, u, r, w = R_new, t_new, p_new, b_new, cost_new, u_new, r_new, w_new
                 lam = max(lam / 10.0, 1e-12)
-                J = jacobian(R, eu[:, 3:])
+                J = jacobian(R, u)
+                H = J.T @ J
                 break
             lam = max(lam, 1e-9) * 10.0
             if lam > 1e16:
                 converged = True
                 break
-    return Solution(R, t, p_base, cost, it, J.T @ J, eu[:, :3] * sigma, w, model, beta, J, eu[:, :3])
+    return Solution(R, t, p_base, cost, it, H, r * sigma, w, model, beta, J, r)
 
 
 def plausible(sol: Solution) -> bool:
     """A camera within ``MAX_OFFSET_M`` of the flange with an RMS residual per axis below
     ``IMPLAUSIBLE_RMS_M`` (else a wrong minimum is suspected)."""
-    rms = float(np.sqrt(np.mean(sol.errors**2)))
-    return bool(np.linalg.norm(sol.t) < MAX_OFFSET_M and rms < IMPLAUSIBLE_RMS_M)
+    ms = float(np.vdot(sol.errors, sol.errors)) / sol.errors.size
+    return bool(float(sol.t @ sol.t) < MAX_OFFSET_M**2 and ms < IMPLAUSIBLE_RMS_M**2)
 
 
 def solve(
@@ -218,15 +219,17 @@ def solve(
         p0 = start_target(p_cam, R_fl, t_fl, R0, t0) if p0 is None else p0
         return refine(p_cam, R_fl, t_fl, sigma, R0, t0, p0, loss, loss_scale, model=model)
 
-    R, t, p_base = linear_init(p_cam, R_fl, t_fl, 1.0 / np.mean(sigma, axis=1) ** 2)
+    R, t, p_base = linear_init(p_cam, R_fl, t_fl, (3.0 / sigma.sum(axis=1)) ** 2)  # 1 / mean sigma^2
     sols = [from_start(R, t, p_base)]
     if T_flange_cam_guess is not None:
         sols.append(from_start(T_flange_cam_guess[:3, :3], T_flange_cam_guess[:3, 3]))
-    if len(p_cam) <= MIN_LINEAR_SAMPLES or not any(plausible(s) for s in sols):
+    ok = [plausible(s) for s in sols]
+    if len(p_cam) <= MIN_LINEAR_SAMPLES or not any(ok):
         cube = cube_rotations()
         best = np.argsort(_rotation_only_costs(p_cam, R_fl, t_fl, cube))[:MULTI_STARTS]
-        sols += [from_start(R0, np.zeros(3)) for R0 in cube[best]]
-    return min(sols, key=lambda s: (not plausible(s), s.cost))  # a plausible camera first, then cost
+        more = [from_start(R0, np.zeros(3)) for R0 in cube[best]]
+        sols, ok = sols + more, ok + [plausible(s) for s in more]
+    return sols[min(range(len(sols)), key=lambda i: (not ok[i], sols[i].cost))]  # a plausible camera first
 
 
 def _rotation_only_costs(

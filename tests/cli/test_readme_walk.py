@@ -1,37 +1,19 @@
 """Walking the README: every `sofia` command of its fenced blocks that needs neither running services
 nor hardware runs as written, in README order, in a scratch folder laid out as after `make demo`
-(synthetic recordings in `var/recordings/`, the lab's files in `data/lab/`), and exits 0 as the
-README's exit-code table says for a job that ran.
+(``walk_dir``, see conftest), and exits 0 as the README's exit-code table says for a job that ran.
 
-The files the README names as examples of inputs (`perception.bag`, `recording.mcap`,
-`cloud.pcd`, `scan.ply`, `points.npy`, `camera.mcap`, `T_flange_cam.yaml`, `poses.txt`, `q.txt`,
-`s.csv`, `s.json`, `rec.mcap`) are made here from the same synthetic data. The commands that talk to
-running services or hardware are listed in ``ON_THE_BUS`` with the tests that run them; a README
-command in neither list fails the first test.
+The commands that talk to running services are walked by ``test_readme_bus_walk.py`` against
+`sofia up` where they need no hardware; every one is listed in ``ON_THE_BUS`` with the tests that run
+it. A README command in neither list fails the first test.
 """
 
 from __future__ import annotations
 
 import itertools
-import json
 import shlex
-import shutil
-import subprocess
 from pathlib import Path
-from typing import Any
 
-import numpy as np
-import open3d as o3d
-import pytest
-import yaml
-from rosbags.rosbag1 import Writer
-from rosbags.typesys import Stores, get_typestore
-from sofia_calibrator.fk import panda_fk
-from sofia_calibrator.simulate import make_problem
-from sofia_replay import iter_messages, read_truth
-from sofia_schemas import pointcloud
-from sofia_schemas.launcher import sofia_executable
-
+from .conftest import run_sofia
 from .test_readme_commands import ROOT, readme_commands
 
 OFFLINE = [("synth",), ("replay", "export"), ("replay", "convert"), ("replay", "info"), ("detect",),
@@ -49,8 +31,6 @@ ON_THE_BUS = {  # command -> the tests that run it against running services or s
     ("detector", "serve"): "tests/detector/test_service.py",
     ("viz",): "tests/viz/test_viz.py",
 }
-PC2 = "sensor_msgs/msg/PointCloud2"
-TS = "geometry_msgs/msg/TransformStamped"
 
 
 def kind(argv: list[str]) -> str:
@@ -72,94 +52,12 @@ def test_every_readme_command_is_walked_here_or_run_by_a_named_test() -> None:
     assert not missing, missing
 
 
-def _run(cwd: Path, *argv: str) -> subprocess.CompletedProcess[str]:
-    return subprocess.run([*sofia_executable(), *argv], cwd=cwd, capture_output=True, text=True, timeout=300)
-
-
-def _bag(path: Path, scenes: Path) -> None:
-    """A ROS 1 bag like the lab's perception.bag: base-frame clouds on /pc_glob, a /tool_pose."""
-    ros1, ros2 = get_typestore(Stores.ROS1_NOETIC), get_typestore(Stores.ROS2_HUMBLE)
-    T = ros1.types
-    with Writer(path) as w:
-        pc = w.add_connection("/pc_glob", PC2, typestore=ros1)
-        tool = w.add_connection("/tool_pose", TS, typestore=ros1)
-        for i, m in enumerate(x for x in iter_messages(scenes) if x.topic == "/pc_glob"):
-            c: Any = ros2.deserialize_cdr(m.data, PC2)
-            header = T["std_msgs/msg/Header"](seq=i, stamp=c.header.stamp, frame_id=c.header.frame_id)
-            fields = [T["sensor_msgs/msg/PointField"](name=f.name, offset=f.offset, datatype=f.datatype,
-                                                      count=f.count) for f in c.fields]  # fmt: skip
-            cloud = T[PC2](header=header, height=c.height, width=c.width, fields=fields, is_bigendian=False,
-                           point_step=c.point_step, row_step=c.row_step, data=c.data, is_dense=c.is_dense)  # fmt: skip
-            w.write(pc, m.log_time_ns, ros1.serialize_ros1(cloud, PC2))
-            pose = T[TS](header=header, child_frame_id="panda_link8", transform=T["geometry_msgs/msg/Transform"](
-                translation=T["geometry_msgs/msg/Vector3"](x=0.4, y=0.0, z=0.5),
-                rotation=T["geometry_msgs/msg/Quaternion"](x=1.0, y=0.0, z=0.0, w=0.0)))  # fmt: skip
-            w.write(tool, m.log_time_ns + 1, ros1.serialize_ros1(pose, TS))
-
-
-def _cloud_files(cwd: Path, scenes: Path) -> None:
-    """cloud.pcd, scan.ply and points.npy: the first base-frame cloud of ``scenes`` (organized)."""
-    msg = next(m for m in iter_messages(scenes) if m.topic == "/pc_glob")
-    xyz = pointcloud.decode(msg.data).xyz().astype(np.float32)  # (H, W, 3) base frame
-    np.save(cwd / "points.npy", xyz)
-    h, w = xyz.shape[:2]
-    header = f"VERSION .7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH {w}\nHEIGHT {h}\n"
-    header += f"VIEWPOINT 0 0 0 1 0 0 0\nPOINTS {h * w}\nDATA ascii\n"
-    rows = "\n".join(" ".join(f"{v:.6g}" for v in p) for p in xyz.reshape(-1, 3))
-    (cwd / "cloud.pcd").write_text(header + rows + "\n")
-    finite = xyz.reshape(-1, 3)[np.isfinite(xyz.reshape(-1, 3)).all(axis=1)]
-    o3d.io.write_point_cloud(cwd / "scan.ply", o3d.geometry.PointCloud(o3d.utility.Vector3dVector(finite)))
-
-
-def _calibration_files(cwd: Path) -> None:
-    """poses.txt + q.txt (Panda joints), s.csv and s.json: one blob seen from 10 joint configurations."""
-    rng = np.random.default_rng(0)
-    q = np.array([0.0, -0.5, 0.0, -2.2, 0.0, 1.9, 0.8]) + rng.uniform(-0.35, 0.35, (10, 7))
-    T_base_cam = panda_fk(q) @ make_problem(3, rng).T_flange_cam
-    p_base = T_base_cam[0, :3, 3] + 0.4 * T_base_cam[0, :3, 2]
-    p_cam = np.einsum("nji,nj->ni", T_base_cam[:, :3, :3], p_base - T_base_cam[:, :3, 3])
-    (cwd / "q.txt").write_text("\n".join(" ".join(f"{v:.17g}" for v in r) for r in q) + "\n")
-    (cwd / "poses.txt").write_text("\n".join(",".join(f"{v:.17g}" for v in r) for r in p_cam) + "\n")
-    columns = ["px", "py", "pz", *(f"q{i}" for i in range(1, 8))]
-    rows = [",".join(f"{v:.17g}" for v in (*p, *j)) for p, j in zip(p_cam, q, strict=True)]
-    (cwd / "s.csv").write_text(",".join(columns) + "\n" + "\n".join(rows) + "\n")
-    samples = [{"p_cam": p.tolist(), "q": j.tolist()} for p, j in zip(p_cam, q, strict=True)]
-    (cwd / "s.json").write_text(json.dumps(samples))
-
-
-@pytest.fixture(scope="module")
-def walk_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """A folder laid out as after `make demo`, with the README's example inputs."""
-    cwd = tmp_path_factory.mktemp("readme")
-    shutil.copytree(ROOT / "data" / "lab", cwd / "data" / "lab")
-    shutil.copytree(ROOT / "config", cwd / "config")
-    rec = cwd / "var" / "recordings"
-    for argv in (("synth", "scenes", str(rec / "scenes.mcap"), "--kind", "mixed", "-n", "6"),
-                 ("synth", "calibration", str(rec / "calibration.mcap"), "--n-poses", "10")):  # fmt: skip
-        r = _run(cwd, *argv)
-        assert r.returncode == 0, r.stderr
-    scenes = rec / "scenes.mcap"
-    for name in ("recording.mcap", "camera.mcap"):
-        shutil.copy(scenes, cwd / name)
-    shutil.copy(rec / "calibration.mcap", cwd / "rec.mcap")
-    truth = read_truth(scenes)
-    assert truth is not None
-    (cwd / "T_flange_cam.yaml").write_text(
-        yaml.safe_dump({"matrix": np.asarray(truth["T_flange_cam"]).tolist()})
-    )
-    _bag(cwd / "perception.bag", scenes)
-    _cloud_files(cwd, scenes)
-    _calibration_files(cwd)
-    (cwd / "recordings").mkdir()
-    return cwd
-
-
 def test_every_offline_readme_command_runs_as_written(walk_dir: Path) -> None:
     offline = [(n, a) for n, a in sofia_commands() if kind(a) == "offline"]
     assert len(offline) >= 15, offline  # 18 when written
     failed = []
     for n, argv in offline:
-        r = _run(walk_dir, *argv)
+        r = run_sofia(walk_dir, *argv)
         if r.returncode != 0:
             failed.append(
                 f"README.md:{n}: sofia {shlex.join(argv)} -> exit {r.returncode}: {r.stderr.strip()[-400:]}"

@@ -107,8 +107,10 @@ def main(argv: list[str] | None = None) -> int:
     from .memory import bound_heap
 
     bound_heap()  # before any thread starts: few malloc arenas, so freed memory can go back
-    parser = build_parser()
-    args = parser.parse_args(argv)
+    try:
+        args = build_parser().parse_args(argv)  # imports every command's package: Ctrl-C may come here
+    except KeyboardInterrupt:
+        return 130
     from .service import setup_logging
 
     setup_logging(args.log_level, getattr(args, "log_file", None))

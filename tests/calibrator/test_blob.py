@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pytest
 from sofia_calibrator import BlobAmbiguous, BlobCutByEdge, BlobNotFound, calibrate
@@ -64,6 +66,15 @@ def test_rejections_say_why() -> None:
     with pytest.raises(InputMismatch, match=r"organized cloud \(H, W, 3\)"):
         find_blob(points.reshape(-1, 3), rgb)
     assert issubclass(BlobAmbiguous, CalibrationError)
+
+
+def test_a_view_all_dark_is_no_blob_and_raises_no_warning() -> None:
+    points, rgb = flat_frame([])
+    rgb[:] = 20  # lens cap on, or the sheet out of the light: one dark region with nothing around it
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no "Mean of empty slice" from the empty ring around it
+        with pytest.raises(BlobNotFound, match="none of 1 dark regions is a blob"):
+            find_blob(points, rgb)
 
 
 def test_small_specks_are_not_ambiguous() -> None:

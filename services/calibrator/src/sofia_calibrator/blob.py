@@ -142,8 +142,9 @@ def find_blob(points_cam: np.ndarray, rgb: np.ndarray) -> Blob:
         c0, c1 = max(sl[1].start - RING_PX, 0), min(sl[1].stop + RING_PX, W)
         mask = labels[r0:r1, c0:c1] == k + 1
         ring = ndimage.binary_dilation(mask, iterations=RING_PX) & ~mask
-        if bright[r0:r1, c0:c1][ring].mean() < MIN_WHITE_RING:
-            continue  # not enclosed by the sheet: table edge, gripper, shadow
+        around = bright[r0:r1, c0:c1][ring]
+        if around.size == 0 or around.mean() < MIN_WHITE_RING:
+            continue  # not enclosed by the sheet (or nothing around it in view): table edge, gripper, shadow
         touches = sl[0].start == 0 or sl[1].start == 0 or sl[0].stop == H or sl[1].stop == W
         if touches:
             cut.append((sl[0].start, sl[0].stop - 1, sl[1].start, sl[1].stop - 1))

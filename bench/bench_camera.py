@@ -8,13 +8,16 @@ colour camera, D435 noise) are injected through librealsense's software device. 
 timed from the moment it leaves librealsense's frame queue to the return of the Zenoh ``put`` of
 its cloud, in this process:
 
-- ours: the service's own path (``CameraService.handle``: stamps, ``rs.align`` to colour, the
-  organized xyz+rgb cloud written straight into its CDR message, CameraInfo, both published);
+- ours: the service's own path (``CameraService.handle``: stamps, depth registered onto the colour
+  grid by the compiled registration, the organized xyz+rgb cloud written straight into its CDR
+  message, CameraInfo, both published);
+- ours with rs.align: the same service with ``--align librealsense`` (depth onto the colour grid by
+  librealsense's ``rs.align``, as before the registration);
 - baseline: what one writes with librealsense's own processing blocks: ``rs.align`` to colour, then
   ``rs.pointcloud`` (``map_to`` colour, ``calculate``), vertices and texture coordinates to numpy,
   colours sampled at the texture coordinates, ``encode_points``, published.
 
-The two alternate frame by frame on the same frames (the last row: both with the spatial and
+The three alternate frame by frame on the same frames (the last row: both with the spatial and
 temporal filters, as compose runs the camera). CPU is the process's CPU time (every
 thread, librealsense's included) over the same interval. Target: cloud within 1/3 of the frame
 period (11.1 ms at 30 Hz).
@@ -91,20 +94,25 @@ def bench_mode(
     publishers = Publishers(
         lambda cloud, att: ours_pub.put(cloud, attachment=att), lambda info: ours_pub.put(info)
     )
-    pipeline = CloudPipeline(FilterChain(filters), DepthCorrection(), max_skew_ms=16.0)
-    service = CameraService(camera, pipeline, publishers, Settings(max_skew_ms=16.0))
+    services = {
+        who: CameraService(camera, CloudPipeline(FilterChain(filters), DepthCorrection(), max_skew_ms=16.0,
+                                                 align=align), publishers, Settings(max_skew_ms=16.0))
+        for who, align in (("ours", "registration"), ("align", "librealsense"))
+    }  # fmt: skip
     baseline = Baseline(filters)
-    out: dict[str, list[float]] = {"ours_ms": [], "ours_cpu": [], "base_ms": [], "base_cpu": []}
+    out: dict[str, list[float]] = {
+        f"{who}_{what}": [] for who in ("ours", "align", "base") for what in ("ms", "cpu")
+    }
     t_ms = 1000.0
     for k in range(n + 3):
-        for who in ("ours", "base"):
+        for who in ("ours", "align", "base"):
             t_ms += 1000.0 / FPS
             camera.inject(depth, rgb, t_ms)
             pair = camera.wait_pair(2.0)
             assert pair is not None and pair.color is not None
             c0, t0 = time.process_time(), time.perf_counter()
-            if who == "ours":
-                service.handle(pair)
+            if who in services:
+                services[who].handle(pair)
             else:
                 base_pub.put(baseline.cloud(pair.depth, pair.color, time.time_ns()))
             t1, c1 = time.perf_counter(), time.process_time()
@@ -112,7 +120,8 @@ def bench_mode(
                 out[f"{who}_ms"].append((t1 - t0) * 1e3)
                 out[f"{who}_cpu"].append((c1 - c0) * 1e3)
     camera.close()
-    assert service.counters["published"] == n + 3, service.counters
+    for service in services.values():
+        assert service.counters["published"] == n + 3, service.counters
     return out
 
 
@@ -123,9 +132,10 @@ def main() -> int:
     budget = 1000.0 / FPS / 3
     print(f"{args.frames} frames per resolution at {FPS} Hz through rs.software_device; "
           f"budget 1/3 frame = {budget:.1f} ms; {os.cpu_count()} CPUs, load {os.getloadavg()[0]:.1f}\n")  # fmt: skip
-    print("| resolution | ours min / p50 / p95 (ms) | baseline min / p50 / p95 (ms) | baseline / ours (p50) "
-          "| CPU ours / baseline (ms per frame) | latency p50 within 1/3 frame | CPU within 1/3 frame |")  # fmt: skip
-    print("|---|---:|---:|---:|---:|---|---|")
+    print("| resolution | ours min / p50 / p95 (ms) | ours with rs.align p50 (ms) | baseline min / p50 / p95 (ms) "
+          "| baseline / ours (p50) | CPU ours / with rs.align / baseline (ms per frame) "
+          "| latency p50 within 1/3 frame | CPU within 1/3 frame |")  # fmt: skip
+    print("|---|---:|---:|---:|---:|---:|---|---|")
     missed = []
     with zenoh.open(zenoh_config()) as session:
         for w, h, filters in MODES:
@@ -133,12 +143,13 @@ def main() -> int:
             o50, o95 = np.percentile(r["ours_ms"], [50, 95])
             b50, b95 = np.percentile(r["base_ms"], [50, 95])
             cpu_o, cpu_b = statistics.median(r["ours_cpu"]), statistics.median(r["base_cpu"])
+            a50, cpu_a = statistics.median(r["align_ms"]), statistics.median(r["align_cpu"])
             ok = o50 <= budget
             name = f"{w}x{h}" + (f" + {','.join(filters)}" if filters else "")
             missed += [] if ok else [name]
             o0, b0 = min(r["ours_ms"]), min(r["base_ms"])
-            print(f"| {name} | {o0:.1f} / {o50:.1f} / {o95:.1f} | {b0:.1f} / {b50:.1f} / {b95:.1f} | {b50 / o50:.2f}x | "
-                  f"{cpu_o:.1f} / {cpu_b:.1f} | {'yes' if ok else 'NO'} ({o50 / budget:.2f} of it) | "
+            print(f"| {name} | {o0:.1f} / {o50:.1f} / {o95:.1f} | {a50:.1f} | {b0:.1f} / {b50:.1f} / {b95:.1f} | "
+                  f"{b50 / o50:.2f}x | {cpu_o:.1f} / {cpu_a:.1f} / {cpu_b:.1f} | {'yes' if ok else 'NO'} ({o50 / budget:.2f} of it) | "
                   f"{'yes' if cpu_o <= budget else 'NO'} ({cpu_o / budget:.2f} of it) |", flush=True)  # fmt: skip
     verdict = "met" if not missed else "missed at " + ", ".join(missed)
     print(f"\ntarget (cloud in <= 1/3 frame period at p50): {verdict}; load average {os.getloadavg()[0]:.1f} on "

@@ -36,9 +36,13 @@ def one_cloud(rig, T_base_flange: np.ndarray, t_ms: float = 1000.0):  # type: ig
     return rig.pipeline.build(pair, rig.camera, stamp, color_stamp)
 
 
+@pytest.mark.parametrize("align", ["registration", "librealsense"])
 @pytest.mark.parametrize("width,height", [(640, 480), (848, 480), (1280, 720)])
-def test_points_match_the_rendered_geometry(make_rig, board_world, width: int, height: int) -> None:  # type: ignore[no-untyped-def]
+def test_points_match_the_rendered_geometry(
+    make_rig, board_world, width: int, height: int, align: str
+) -> None:  # type: ignore[no-untyped-def]
     rig = make_rig(board_world, width, height)
+    rig.pipeline.align = align
     T_base_flange = flange_above(board_world)
     out = one_cloud(rig, T_base_flange)
     cloud = pointcloud.decode(out.cloud)
@@ -50,7 +54,9 @@ def test_points_match_the_rendered_geometry(make_rig, board_world, width: int, h
     assert both.mean() > 0.9, f"only {both.mean():.1%} of the pixels have depth"
     err_mm = np.linalg.norm(xyz[both] - truth[both], axis=-1) * 1e3
     p50, p99 = np.percentile(err_mm, [50, 99])
-    assert p50 < 0.5 and p99 < 1.0, f"{width}x{height}: point error p50 {p50:.2f} mm, p99 {p99:.2f} mm"
+    assert p50 < 0.5 and p99 < 1.0, (
+        f"{width}x{height} {align}: point error p50 {p50:.2f} mm, p99 {p99:.2f} mm"
+    )
     # no depth where the colour camera sees nothing (beyond the table)
     assert not np.isfinite(xyz[~np.isfinite(truth[..., 2])][..., 2]).any()
 

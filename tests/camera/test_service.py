@@ -122,6 +122,10 @@ def test_bad_options_are_refused_with_the_reason() -> None:
         [SOFIA, "camera", "serve", "--filters", "spatial,blur"], capture_output=True, text=True, timeout=60
     )
     assert r.returncode == 2 and "blur" in r.stderr, r.stderr
+    r = subprocess.run(
+        [SOFIA, "camera", "serve", "--align", "fast"], capture_output=True, text=True, timeout=60
+    )
+    assert r.returncode == 2 and "fast" in r.stderr and "registration" in r.stderr, r.stderr
 
 
 def test_without_a_camera_the_service_says_so_and_keeps_serving(sofia_proc, robot_id: str) -> None:  # type: ignore[no-untyped-def]

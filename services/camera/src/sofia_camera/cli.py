@@ -77,6 +77,12 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
         help="comma-separated librealsense filters: decimation,spatial,temporal,hole_filling (default none)",
     )
     s.add_argument(
+        "--align",
+        choices=("registration", "librealsense"),
+        default="registration",
+        help="how depth is put on the colour grid: the service's own registration (default) or rs.align",
+    )
+    s.add_argument(
         "--max-skew-ms",
         type=float,
         help="colour-depth offset still called one instant (default: half a frame)",
@@ -144,6 +150,7 @@ def _serve(args: argparse.Namespace) -> int:
             height=args.height, fps=args.fps, serial=args.serial, preset=args.preset,
             filters=parse_filters(args.filters), max_skew_ms=args.max_skew_ms, drop_unsynced=args.drop_unsynced,
             depth_correction=args.depth_correction == "auto", sim=sim_options(args) if args.sim else None,
+            align=args.align,
         )  # fmt: skip
     except CameraError as e:
         print(f"sofia camera serve: {e}", file=sys.stderr)

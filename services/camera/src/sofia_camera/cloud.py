@@ -1,10 +1,10 @@
-"""Organized clouds straight from an aligned depth image into CDR PointCloud2 bytes.
+"""Organized clouds straight from a depth image on the colour grid into CDR PointCloud2 bytes.
 
 Layout as the RealSense ROS driver publishes ``/camera/depth/color/points`` with ordered clouds:
 x, y, z float32 and ``rgb`` float32 holding packed b, g, r, a bytes; point_step 16; one point per
-colour pixel, row by row; NaN where there is no depth. Each coordinate is computed straight into
-the output message (``z * ray``), with the header built once per size; the colour stream is read
-as BGRA so that its pixels are the packed ``rgb`` field as they are.
+colour pixel, row by row; NaN where there is no depth. Each point is written straight into the
+output message (``z * ray``, one compiled pass), with the header built once per size; the colour
+stream is read as BGRA so that its pixels are the packed ``rgb`` field as they are.
 """
 
 from __future__ import annotations
@@ -12,6 +12,7 @@ from __future__ import annotations
 import struct
 from collections.abc import Callable
 
+import numba
 import numpy as np
 from sofia_schemas import pointcloud
 from sofia_schemas.cloud import XYZRGB_FIELDS, PointCloud2
@@ -30,7 +31,7 @@ class CloudEncoder:
         self._intrinsics: Intrinsics | None = None
         self._rays = np.zeros((0, 0, 2), np.float32)
         self._head = b""
-        self._lut_units = 0.0
+        self._lut_units = 0.0  # the depth unit ``_lut`` was built for
         self._lut = np.zeros(65536, np.float32)
 
     def _prepare(self, intr: Intrinsics) -> None:
@@ -46,10 +47,17 @@ class CloudEncoder:
         self._head = pointcloud.encode(template)[: -n_data - 1]
         self._intrinsics = intr
 
+    def metres(self, depth_units: np.ndarray, units_m: float) -> np.ndarray:
+        """(H, W) float32 metres of a uint16 depth image in ``units_m`` (0, no depth, -> NaN), by lookup."""
+        if units_m != self._lut_units:
+            self._lut = np.arange(65536, dtype=np.float32) * np.float32(units_m)
+            self._lut[0] = np.nan
+            self._lut_units = units_m
+        return np.take(self._lut, depth_units)
+
     def encode(
         self,
-        depth_units: np.ndarray,
-        units_m: float,
+        z_m: np.ndarray,
         bgra: np.ndarray,
         intr: Intrinsics,
         stamp_ns: int,
@@ -57,9 +65,10 @@ class CloudEncoder:
     ) -> bytearray:
         """CDR bytes of the organized cloud.
 
-        depth_units: (H, W) uint16 aligned depth in ``units_m`` metres (0 = no depth). bgra: (H, W, 4)
-        uint8 colour image (librealsense ``bgra8``). intr: the colour intrinsics (the aligned depth's). correct: optional
-        ``(n, 3) points_cam -> (n, 3)`` applied before writing (the calibration's depth correction).
+        z_m: (H, W) float32 depth along the colour optical axis, metres, on the colour grid (NaN, inf or
+        <= 0: no depth). bgra: (H, W, 4) uint8 colour image (librealsense ``bgra8``). intr: the colour
+        intrinsics. correct: optional ``(n, 3) points_cam -> (n, 3)`` applied before writing (the
+        calibration's depth correction).
         """
         self._prepare(intr)
         n = intr.width * intr.height
@@ -71,19 +80,33 @@ class CloudEncoder:
         body = np.frombuffer(out, dtype=np.uint8, count=n * POINT_STEP, offset=len(head)).reshape(
             n, POINT_STEP
         )
-        xyz = body.view("<f4")[:, :3]
-        if units_m != self._lut_units:  # depth unit -> metres, 0 (no depth) -> NaN, in one lookup
-            self._lut = np.arange(65536, dtype=np.float32) * np.float32(units_m)
-            self._lut[0] = np.nan
-            self._lut_units = units_m
-        z = self._lut[depth_units.reshape(n)]
+        z = np.ascontiguousarray(z_m, dtype=np.float32).reshape(n)
+        colour = np.ascontiguousarray(bgra).view("<u4").reshape(n)
         if correct is None:
-            np.multiply(self._rays[0], z, out=xyz[:, 0])
-            np.multiply(self._rays[1], z, out=xyz[:, 1])
-            xyz[:, 2] = z
+            missing = _write_points(z, self._rays, colour, body.view("<f4"), body.view("<u4"))
         else:
+            z = np.where((z > 0) & (z < np.inf), z, np.float32(np.nan))
             points = np.stack([self._rays[0] * z, self._rays[1] * z, z], axis=-1)
-            xyz[:] = correct(points)
-        body.view("<u4")[:, 3] = np.ascontiguousarray(bgra).view("<u4").reshape(n)
-        out[-1] = 0 if (depth_units == 0).any() else 1
+            body.view("<f4")[:, :3] = correct(points)
+            body.view("<u4")[:, 3] = colour
+            missing = int(np.isnan(z).sum())
+        out[-1] = 0 if missing else 1
         return out
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def _write_points(z, rays, colour, out_f32, out_u32):  # type: ignore[no-untyped-def]
+    """Writes ``z * (x_n, y_n, 1)`` (NaN where no depth) and the packed colour into the (n, 4) point
+    records; returns how many points have no depth."""
+    missing = 0
+    nan = np.float32(np.nan)
+    for p in range(z.size):
+        d = z[p]
+        ok = (d > 0) & (d < np.inf)
+        d = d if ok else nan
+        missing += not ok
+        out_f32[p, 0] = d * rays[0, p]
+        out_f32[p, 1] = d * rays[1, p]
+        out_f32[p, 2] = d
+        out_u32[p, 3] = colour[p]
+    return missing

@@ -73,6 +73,11 @@ class Intrinsics:
 
         Vectorised ``rs2_deproject_pixel_to_point`` for every pixel (same models, same iterations)."""
         u, v = np.meshgrid(np.arange(self.width, dtype=np.float64), np.arange(self.height, dtype=np.float64))
+        return self.normalized(u, v).astype(np.float32)
+
+    def normalized(self, u: np.ndarray, v: np.ndarray) -> np.ndarray:
+        """(..., 2) float64 ``(x_n, y_n)`` of pixel coordinates ``u`` (column), ``v`` (row), arrays of one
+        shape (any real coordinates: ``u - 0.5`` is a pixel's left edge)."""
         x = (u - self.ppx) / self.fx
         y = (v - self.ppy) / self.fy
         k1, k2, p1, p2, k3 = self.coeffs
@@ -88,7 +93,7 @@ class Intrinsics:
                 x, y = (xd - dx) * icdist, (yd - dy) * icdist
         else:
             raise UnsupportedIntrinsics(self.model)
-        return np.stack([x, y], axis=-1).astype(np.float32)
+        return np.stack([x, y], axis=-1)
 
 
 @dataclass(frozen=True)

@@ -12,9 +12,11 @@ from .camera_info import encode_camera_info
 from .clock import ClockMap
 from .cloud import FRAME_ID, CloudEncoder
 from .correction import DepthCorrection
+from .errors import BadOption
 from .intrinsics import Intrinsics
 from .meta import CloudMeta
 from .processing import Aligner, FilterChain
+from .registration import DepthRegistration
 from .streams import FramePair, FrameSource
 
 
@@ -28,20 +30,40 @@ class Output:
     build_ms: float
 
 
+ALIGN_MODES = ("registration", "librealsense")
+
+
 class CloudPipeline:
     """Builds clouds from the pairs of one camera; ``max_skew_ms``: larger colour-depth offsets are
-    not the same instant (flagged ``synced: false``)."""
+    not the same instant (flagged ``synced: false``).
+
+    align: how depth is put on the colour grid: ``registration`` (:class:`DepthRegistration`, the
+    default; colour lens models it cannot project fall back to librealsense) or ``librealsense``
+    (``rs.align``).
+    """
 
     def __init__(self, filters: FilterChain, correction: DepthCorrection, max_skew_ms: float,
-                 simulated: bool = False, frame_id: str = FRAME_ID) -> None:  # fmt: skip
+                 simulated: bool = False, frame_id: str = FRAME_ID, align: str = "registration") -> None:  # fmt: skip
+        if align not in ALIGN_MODES:
+            raise BadOption("--align", align, f"use one of {list(ALIGN_MODES)}")
         self.filters = filters
         self.correction = correction
         self.max_skew_ms = max_skew_ms
         self.simulated = simulated
         self.frame_id = frame_id
         self.clock = ClockMap()
+        self.align = align
         self.aligner = Aligner()
+        self.registration = DepthRegistration()
         self.encoder = CloudEncoder(frame_id)
+
+    def warm_up(self) -> None:
+        """Compile (or load from numba's cache) the registration and the cloud writer on a tiny frame,
+        so that the first real frame does not wait for it."""
+        tiny = Intrinsics(8, 6, 6.0, 6.0, 3.5, 2.5)
+        z_m = self.registration.register_arrays(np.full((6, 8), 500, np.uint16), 1e-3, tiny, tiny, np.eye(4))
+        CloudEncoder(self.frame_id).encode(z_m, np.zeros((6, 8, 4), np.uint8), tiny, 0)
+        self.registration = DepthRegistration()
 
     def stamp(self, pair: FramePair, source: FrameSource) -> tuple[int, int | None]:
         """Bus stamps of the depth frame and of the colour frame."""
@@ -57,13 +79,16 @@ class CloudPipeline:
         assert pair.color is not None
         t0 = time.perf_counter()
         depth = self.filters.process(pair.depth)
-        aligned = self.aligner.align(depth, pair.color)
-        intr = Intrinsics.from_rs(aligned.get_profile().as_video_stream_profile().get_intrinsics())
-        depth_units = np.asanyarray(aligned.get_data())
+        intr = Intrinsics.from_rs(pair.color.get_profile().as_video_stream_profile().get_intrinsics())
+        if self.align == "registration" and DepthRegistration.supports(intr):
+            z_m, intr = self.registration.register(depth, pair.color)
+        else:
+            aligned = self.aligner.align(depth, pair.color)
+            z_m = self.encoder.metres(np.asanyarray(aligned.get_data()), aligned.get_units())
         bgra = np.asanyarray(pair.color.get_data())
         correction, source_name = self.correction.current()
         correct = None if correction is None else (lambda p: self.correction.apply(p, correction))
-        cloud = self.encoder.encode(depth_units, aligned.get_units(), bgra, intr, stamp_ns, correct)
+        cloud = self.encoder.encode(z_m, bgra, intr, stamp_ns, correct)
         build_ms = (time.perf_counter() - t0) * 1e3
         meta = CloudMeta(
             stamp_ns=stamp_ns, color_stamp_ns=color_ns, skew_ms=round(pair.skew_ms, 3),

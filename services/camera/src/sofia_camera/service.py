@@ -208,6 +208,7 @@ class ServiceConfig:
     drop_unsynced: bool = False
     depth_correction: bool = True
     sim: Any = None  # SimOptions: frames from the simulated D435 instead of a device
+    align: str = "registration"  # depth onto the colour grid: registration | librealsense (rs.align)
 
 
 def _initial_correction(session: zenoh.Session, keys: Keys, correction: DepthCorrection) -> None:
@@ -225,12 +226,18 @@ def main(config: ServiceConfig) -> int:
     max_skew_ms = config.max_skew_ms if config.max_skew_ms is not None else 500.0 / config.fps
     correction = DepthCorrection(enabled=config.depth_correction)
     pipeline = CloudPipeline(
-        FilterChain(config.filters), correction, max_skew_ms, simulated=config.sim is not None
+        FilterChain(config.filters),
+        correction,
+        max_skew_ms,
+        simulated=config.sim is not None,
+        align=config.align,
     )
     info: dict[str, Any] = {"mode": f"{config.width}x{config.height}@{config.fps}", "preset": config.preset,
-                            "simulated": config.sim is not None}  # fmt: skip
+                            "simulated": config.sim is not None, "align": config.align}  # fmt: skip
     settings = Settings(max_skew_ms=max_skew_ms, drop_unsynced=config.drop_unsynced,
                         frame_timeout_s=max(1.0, 5.0 / config.fps), info=info)  # fmt: skip
+    if config.align == "registration":
+        pipeline.warm_up()
     with zenoh.open(zenoh_config(config.zenoh)) as session:
         publish, declared = zenoh_publishers(session, keys)
         declared.append(session.declare_subscriber(keys.calibration_result,

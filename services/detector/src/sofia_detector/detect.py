@@ -169,20 +169,17 @@ def detect(
     t2 = time.perf_counter()
     white = None
     need_white = colours is not None and organized  # measured once, for the first object named
-    left_band = 0
-    if organized and found:
-        seen_cols = np.isfinite(fit.m_coarse[2]).mean(axis=0) > 0.2  # the invalid band ends here
-        left_band = int(np.argmax(seen_cols)) * params.stride if seen_cols.any() else 0
+    depth = cloud[..., 2] if organized else None
     objects = []
     for obj in found:
         if obj.b.shape[1] < params.min_points:
             continue
-        est = estimate_object(obj, fit.plane.rms, params.curvature)
+        est = estimate_object(obj, fit.plane.rms, params.curvature, params.colour_tol)
         if est.size[1] < params.min_width or est.height < params.min_object_height:
             continue  # a sliver of mixed pixels, or below the height floor
         if board.field_of_board_xy(est.center_xy[None, :])[0, 0] < 0:
             continue  # not on the field grid
-        view = in_view(obj, est.height, params.colour_tol, left_band)
+        view = in_view(obj, est.height, params.colour_tol, depth)
         if view.off_board > OFF_BOARD:
             continue  # beside the board (on the table)
         if need_white and colours is not None:

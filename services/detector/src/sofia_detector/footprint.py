@@ -14,8 +14,10 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import ndimage
 
+from .holes import unseen_top
 from .outline import Rect, min_area_rect
 from .pixels import median
+from .rim import round_footprint
 from .segment import ObjectPoints
 
 FIT_POINTS = 3000  # points used by the fits (every k-th of a large object)
@@ -109,7 +111,9 @@ def _solid(obj: ObjectPoints, subset: np.ndarray) -> np.ndarray:
     return subset & keep[labels[obj.rows, obj.cols]]
 
 
-def estimate_object(obj: ObjectPoints, noise: float, curvature: float) -> ObjectEstimate:
+def estimate_object(
+    obj: ObjectPoints, noise: float, curvature: float, colour_tol: float = 0.0
+) -> ObjectEstimate:
     """Footprint, height and centre of one object.
 
     obj: the object's points, board frame, metres (z = height above the board). noise: depth noise
@@ -119,6 +123,7 @@ def estimate_object(obj: ObjectPoints, noise: float, curvature: float) -> Object
     it. The footprint of a flat top is the rectangle of the points within 3 sigma of the top
     height: the top and the upper edge of the visible sides, which project onto the footprint,
     and not the mixed pixels that a depth camera leaves along silhouettes (they lie outside it).
+    colour_tol > 0: missing-depth pixels of a flat top's colour are part of it (:mod:`.holes`).
     """
     b_all = obj.b
     n = b_all.shape[1]
@@ -137,7 +142,7 @@ def estimate_object(obj: ObjectPoints, noise: float, curvature: float) -> Object
     mean_top = top[:2].mean(axis=1, dtype=np.float64) if top.shape[1] else R @ mid
     fit = fit_top(top[0] - mean_top[0], top[1] - mean_top[1], top[2])
     curved = False
-    yaw = rect.yaw
+    yaw, whole = rect.yaw, rect
     cone = fit_cone(b, rect, noise)
     if cone is not None:  # a cone: its apex is the height, its base the full footprint
         curved, height, center_xy, size = True, cone, rect.center, rect.size
@@ -154,10 +159,14 @@ def estimate_object(obj: ObjectPoints, noise: float, curvature: float) -> Object
         height = float(median(top[2])) if top.shape[1] else h_hi
         face = _solid(obj, b_all[2] > height - max(3 * noise, 0.004))
         if np.count_nonzero(face) >= 3:
-            rect = min_area_rect(obj.boundary_xy(face))
+            unseen = unseen_top(obj, face, colour_tol) if colour_tol > 0 else np.zeros((0, 2))
+            rect = min_area_rect(np.vstack([obj.boundary_xy(face), unseen]))
             yaw = rect.yaw
         center_xy = rect.center
         size = rect.size
+        circle = round_footprint(obj, face, height, noise, rect, whole)
+        if circle is not None:  # a round top: its centre even where part of it is out of view
+            center_xy, size = circle[0], np.full(2, 2 * circle[1])
     if size[0] < size[1]:
         size = size[::-1]
         yaw += np.pi / 2

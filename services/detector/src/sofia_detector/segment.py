@@ -19,6 +19,9 @@ from .params import DetectorParams
 from .pixels import where
 from .plane import change_frame, coords
 
+MIN_PART = 10  # pixels of the smallest part standing on an object that is joined to it
+PART_MARGIN = 0.005  # metres
+
 
 @dataclass(frozen=True)
 class ObjectPoints:
@@ -124,7 +127,7 @@ def organized_objects(
         with np.errstate(invalid="ignore"):
             mask = (b[2] > levels.point) & (b[2] < params.max_height)
         mask &= consistent(b, levels.delta)
-        wl, _ = ndimage.label(mask, structure=EIGHT)
+        wl, n_pieces = ndimage.label(mask, structure=EIGHT)
         hits = wl[rows - r0, cols - c0]
         hits = hits[hits > 0]
         if hits.size == 0:
@@ -132,12 +135,40 @@ def organized_objects(
         counts = np.bincount(hits)
         pieces = np.flatnonzero(counts >= max(2.0, 0.1 * counts.max()))
         obj = np.isin(wl, pieces) if pieces.size > 1 else wl == pieces[0]
+        if n_pieces > pieces.size:
+            obj = _with_parts_on_top(wl, n_pieces, b, obj, pieces)
         claimed.append((r0, c0, obj))
         rows_obj, cols_obj = where(obj)
         yield ObjectPoints(
             b[:, rows_obj, cols_obj], rows_obj, cols_obj, obj.shape, (r0, c0), (H, W), b,
             None if rgb is None else rgb[r0:r1, c0:c1],
         )  # fmt: skip
+
+
+def _with_parts_on_top(
+    labels: np.ndarray, n: int, b: np.ndarray, obj: np.ndarray, pieces: np.ndarray
+) -> np.ndarray:
+    """``obj`` (h, w) bool (the ``pieces`` of ``labels``) with the other pieces of ``labels``
+    (h, w) (1..n) that stand on it: at least :data:`MIN_PART` pixels, higher than its median
+    point and inside its footprint's bounding box (within :data:`PART_MARGIN`). A step in depth separates such a part (a bottle's
+    neck above its shoulder) on the pixel grid; nothing floats above an object. b: (3, h, w)
+    board-frame coordinates of the window, metres."""
+    sizes = np.bincount(labels.ravel(), minlength=n + 1)
+    sizes[pieces] = 0
+    sizes[0] = 0
+    parts = np.flatnonzero(sizes >= MIN_PART)
+    if parts.size == 0:
+        return obj
+    xy = b[:2, obj]
+    lo, hi = xy.min(axis=1) - PART_MARGIN, xy.max(axis=1) + PART_MARGIN
+    floor = float(np.median(b[2, obj]))
+    out = obj.copy()
+    for k in parts:
+        part = labels == k
+        p = b[:, part]
+        if p[2].min() > floor and np.all(p[:2].min(axis=1) >= lo) and np.all(p[:2].max(axis=1) <= hi):
+            out |= part
+    return out
 
 
 def unorganized_objects(

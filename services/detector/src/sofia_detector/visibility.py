@@ -35,12 +35,22 @@ class InView:
     off_board: float = 0.0
 
 
-def in_view(obj: ObjectPoints, top: float, tol: float, left_band: int = 0) -> InView:
+def seen_from(depth: np.ndarray, rows: slice, stop: int) -> np.ndarray:
+    """The first column with depth in each of ``rows`` of ``depth`` (H, W) (z of an organized cloud,
+    NaN where missing), searched in its first ``stop`` columns (``stop`` when none has depth).
+    The band on the image's left that the second imager does not see is as wide as the disparity:
+    wider for nearer surfaces, so an object's top ends it further right than the board does."""
+    seen = np.isfinite(depth[rows, :stop])
+    return np.where(seen.any(axis=1), np.argmax(seen, axis=1), stop)
+
+
+def in_view(obj: ObjectPoints, top: float, tol: float, depth: np.ndarray | None = None) -> InView:
     """Visibility of an object of an organized cloud whose top is ``top`` metres above the board.
 
-    left_band: width (px) of the band on the image's left that the second imager does not see:
-    its edge is an image edge. Missing depth just left of the object is its own stereo shadow
-    (the second imager sits to the right), not a hole in it.
+    depth: (H, W) the cloud's z (NaN where missing). Where the object reaches the first column with
+    depth of a row (:func:`seen_from`), everything to its left up to the image border is unseen:
+    an image edge. Missing depth just left of the object is its own stereo shadow (the second
+    imager sits to the right), not a hole in it.
     """
     if obj.rows is None or obj.cols is None or obj.window is None:
         return InView(1.0, (), 0.0, 0.0, 0.0)
@@ -49,9 +59,13 @@ def in_view(obj: ObjectPoints, top: float, tol: float, left_band: int = 0) -> In
         int(v) for v in (obj.rows.min(), obj.rows.max(), obj.cols.min(), obj.cols.max())
     )
     edge = 0
-    if lo_r + r0 == 0 or hi_r + r0 == H - 1 or lo_c + c0 <= left_band or hi_c + c0 == W - 1:
+    first = np.full(hi_r - lo_r + 1, -2)  # per row of the object: its first column with depth
+    if depth is not None and lo_c + c0 < W // 3:  # the band is narrower than a third of the image
+        first = seen_from(depth, slice(lo_r + r0, hi_r + r0 + 1), min(hi_c + c0 + 1, W // 3))
+    if lo_r + r0 == 0 or hi_r + r0 == H - 1 or lo_c + c0 <= first.max() + 1 or hi_c + c0 == W - 1:
         rows, cols = obj.rows + r0, obj.cols + c0
-        border = (rows == 0) | (rows == H - 1) | (cols <= left_band) | (cols == W - 1)
+        left = cols <= first[obj.rows - lo_r] + 1
+        border = (rows == 0) | (rows == H - 1) | left | (cols == W - 1)
         edge = 2 * int(np.count_nonzero(border))
     crop = (
         slice(max(lo_r - 4, 0), min(hi_r + 5, obj.shape[0])),

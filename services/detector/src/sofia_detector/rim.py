@@ -1,0 +1,146 @@
+"""Round flat tops (cylinders, pucks): the centre from a circle through the seen part of the rim.
+
+The rectangle around a flat top is its footprint only when the whole top is in view. Where the
+top runs out of view (the image border, the band the second imager does not see, an occluder, or
+missing depth on a dark or glossy top), the rectangle shrinks to the seen part and its centre
+moves. A rim pixel that borders the board or the object's own side (finite depth, lower than the
+top) is a true edge of the top wherever the rest of it is; a circle through those pixels gives the
+centre of a round top from an arc of 140 degrees or more. A rectangle's rim lies closer to its
+rectangle than to any circle, which tells boxes from cylinders.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy import ndimage
+
+from .outline import Rect
+from .pixels import grow, median, where
+from .segment import ObjectPoints
+
+MIN_RIM = 12  # fewest rim pixels for a circle
+MAX_GAP = np.deg2rad(220.0)  # widest angle around the centre without rim pixels
+CAP_SHARE = 0.3  # a flat top of less than this share of the object's footprint is a cap on a body
+WHOLE_TOP = 0.003  # a top whose rectangle matches its circle this well is seen whole, metres
+RMS_SPACINGS = 0.8  # largest rms radial residual, in pixel spacings (plus the depth noise)
+
+
+def rim_xy(obj: ObjectPoints, face: np.ndarray, top: float, drop: float) -> tuple[np.ndarray, float]:
+    """(k, 2) board-frame xy of the pixels of a flat top's outer edge whose 8 neighbours outside it
+    all have depth and lie more than ``drop`` below ``top`` (metres): its edges against the board
+    or its own sides, not those against missing depth, the image border or something higher.
+
+    obj: an object of an organized cloud; face: (n,) bool over its points, the top. Also returns
+    the distance between neighbouring pixels on the top (metres).
+    """
+    if obj.rows is None or obj.cols is None or obj.window is None:
+        return np.zeros((0, 2)), 0.0
+    fr, fc = obj.rows[face], obj.cols[face]
+    if fr.size == 0:
+        return np.zeros((0, 2)), 0.0
+    # the top's bounding box and one pixel around it, framed by missing depth (the window's border
+    # is not seen)
+    r0, c0 = max(int(fr.min()) - 1, 0), max(int(fc.min()) - 1, 0)
+    r1, c1 = min(int(fr.max()) + 2, obj.shape[0]), min(int(fc.max()) + 2, obj.shape[1])
+    grid = np.zeros((r1 - r0, c1 - c0), dtype=bool)
+    grid[fr - r0, fc - c0] = True
+    grid = ndimage.binary_fill_holes(grid)
+    h = np.full((r1 - r0 + 2, c1 - c0 + 2), np.nan, dtype=np.float32)
+    h[1:-1, 1:-1] = obj.window[2, r0:r1, c0:c1]
+    with np.errstate(invalid="ignore"):
+        below = h < top - drop
+    below[1:-1, 1:-1] |= grid
+    # a pixel of the top is a rim pixel when its whole 3 x 3 neighbourhood is the top or below it
+    ok = grid & ~(~grow(~grid, 3))  # the top's pixels that have a neighbour outside it
+    for dr in range(3):
+        for dc in range(3):
+            ok &= below[dr : dr + grid.shape[0], dc : dc + grid.shape[1]]
+    r, c = where(ok)
+    xy = obj.window[:2, r + r0, c + c0].T.astype(np.float64)
+    # pixel spacing: a sample of the top's pixels and their right-hand neighbours
+    k = max(1, fr.size // 200)
+    sr, sc = fr[::k], np.minimum(fc[::k] + 1, obj.shape[1] - 1)
+    with np.errstate(over="ignore", invalid="ignore"):  # huge coordinates: no spacing
+        step = obj.window[:2, sr, sc] - obj.window[:2, fr[::k], fc[::k]]
+        d = np.hypot(step[0], step[1])
+    d = d[np.isfinite(d) & (d > 0)]
+    spacing = float(median(d)) if d.size else 0.002
+    return xy[np.isfinite(xy).all(axis=1)], spacing
+
+
+def fit_circle(xy: np.ndarray) -> tuple[np.ndarray, float, float]:
+    """Least-squares circle ``x^2 + y^2 + D x + E y + F = 0`` through xy (k, 2), k >= 3:
+    (centre (2,), radius, rms radial residual), all in the units of xy."""
+    m = xy.mean(axis=0)
+    p = xy - m  # centred: better conditioned
+    A = np.column_stack([p, np.ones(len(p))])
+    try:
+        sol = np.linalg.solve(A.T @ A, A.T @ -(p * p).sum(axis=1))
+    except np.linalg.LinAlgError:  # collinear points
+        return m, np.inf, np.inf
+    c = -sol[:2] / 2
+    r = float(np.sqrt(max(c @ c - sol[2], 0.0)))
+    rms = float(np.sqrt(np.mean((np.hypot(*(p - c).T) - r) ** 2)))
+    return c + m, r, rms
+
+
+def _rect_rms(xy: np.ndarray, rect: Rect) -> float:
+    """Rms distance of xy (k, 2) to the nearest side of ``rect``."""
+    uv = xy @ rect.R  # in the rectangle's axes
+    d = np.minimum(np.abs(uv - rect.lo), np.abs(uv - rect.hi)).min(axis=1)
+    return float(np.sqrt(np.mean(d * d)))
+
+
+def round_top(
+    obj: ObjectPoints, face: np.ndarray, top: float, noise: float, rect: Rect
+) -> tuple[np.ndarray, float] | None:
+    """(centre (2,), radius) of a round flat top from its rim (see :func:`rim_xy`), or None when
+    the top is not round or too little of its rim is seen.
+
+    face: (n,) bool, the top's points; top: its height; noise: depth noise at the board (metres);
+    rect: the rectangle around the seen top. The rim must lie on a circle (after dropping
+    outliers: mixed pixels) within about a pixel, closer than on ``rect``, leave no gap wider
+    than :data:`MAX_GAP` around it, and the circle must hold the seen top.
+    """
+    xy, spacing = rim_xy(obj, face, top, max(3 * noise, 0.004))
+    if len(xy) < MIN_RIM:
+        return None
+    center, r, _ = fit_circle(xy)
+    res = np.abs(np.hypot(xy[:, 0] - center[0], xy[:, 1] - center[1]) - r)
+    keep = res <= max(4.5 * float(median(res)), 0.5 * spacing)
+    if np.count_nonzero(keep) < max(MIN_RIM, 0.8 * len(xy)):
+        return None
+    xy = xy[keep]
+    center, r, rms = fit_circle(xy)
+    pixel = min(spacing, 0.003)
+    if not np.isfinite(r) or r < 0.005 or rms > RMS_SPACINGS * pixel + noise:
+        return None
+    if float(rect.size.max()) > 2 * r + 2 * pixel + 0.002 or rms > 0.5 * _rect_rms(xy, rect):
+        return None  # the seen top does not fit in the circle, or it is a rectangle
+    ang = np.sort(np.arctan2(xy[:, 1] - center[1], xy[:, 0] - center[0]))
+    gaps = np.diff(np.concatenate([ang, ang[:1] + 2 * np.pi]))
+    if float(gaps.max()) > MAX_GAP:
+        return None
+    return center, r
+
+
+def round_footprint(
+    obj: ObjectPoints, face: np.ndarray, top: float, noise: float, rect: Rect, whole: Rect
+) -> tuple[np.ndarray, float] | None:
+    """(centre (2,), radius) of a round object whose flat top's rectangle ``rect`` is cut short by
+    what hides part of it, or None (not round, or ``rect`` is the whole top: a square as wide as
+    the circle; its centre is then better than the circle's, whose rim pixels lie half a pixel
+    inside it on the seen sides only).
+
+    face: (n,) bool, the top's points; top: its height; noise: depth noise at the board (metres).
+    whole: the rectangle around all the object's points. A top much smaller than ``whole`` is a
+    cap on a wider body (a bottle's neck above its shoulder): the body's outline gives the centre.
+    """
+    if float(np.prod(rect.size)) < CAP_SHARE * float(np.prod(whole.size)):
+        return round_top(obj, np.ones_like(face), top, noise, whole)
+    if abs(float(rect.size[0] - rect.size[1])) < WHOLE_TOP:
+        return None  # a square: a round top seen whole, or a square top
+    circle = round_top(obj, face, top, noise, rect)
+    if circle is None or np.all(np.abs(rect.size - 2 * circle[1]) < WHOLE_TOP):
+        return None
+    return circle

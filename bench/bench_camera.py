@@ -6,18 +6,22 @@ Run: .venv/bin/python bench/bench_camera.py [--frames N]
 Frames of a board scene (the simulated D435: ray-cast depth from the left imager, colour from the
 colour camera, D435 noise) are injected through librealsense's software device. Each frame is
 timed from the moment it leaves librealsense's frame queue to the return of the Zenoh ``put`` of
-its cloud, in this process:
+its cloud, in this process, with a subscriber to every cloud in another process (as the detector
+is):
 
 - ours: the service's own path (``CameraService.handle``: stamps, depth registered onto the colour
   grid by the compiled registration, the organized xyz+rgb cloud written straight into its CDR
-  message, CameraInfo, both published);
+  message in a Zenoh shared-memory buffer, CameraInfo, both published; ``$SOFIA_ZENOH_SHM=off``:
+  into a ``bytearray``);
+- ours with plain put: the same, the message written into a ``bytearray`` and put as such (Zenoh
+  copies it, and its transport copies it again into shared memory for the local subscriber);
 - ours with rs.align: the same service with ``--align librealsense`` (depth onto the colour grid by
   librealsense's ``rs.align``, as before the registration);
 - baseline: what one writes with librealsense's own processing blocks: ``rs.align`` to colour, then
   ``rs.pointcloud`` (``map_to`` colour, ``calculate``), vertices and texture coordinates to numpy,
   colours sampled at the texture coordinates, ``encode_points``, published.
 
-The three alternate frame by frame on the same frames (the last row: both with the spatial and
+The four alternate frame by frame on the same frames (the last row: both with the spatial and
 temporal filters, as compose runs the camera). CPU is the process's CPU time (every
 thread, librealsense's included) over the same interval. Target: cloud within 1/3 of the frame
 period (11.1 ms at 30 Hz).
@@ -28,6 +32,8 @@ from __future__ import annotations
 import argparse
 import os
 import statistics
+import subprocess
+import sys
 import time
 
 import numpy as np
@@ -38,15 +44,26 @@ from sofia_camera.intrinsics import d435_spec
 from sofia_camera.pipeline import CloudPipeline
 from sofia_camera.processing import Aligner, FilterChain
 from sofia_camera.service import CameraService, Publishers, Settings
+from sofia_camera.shm import CloudBuffers
 from sofia_camera.sim import SimRenderer
 from sofia_camera.sim_scene import SimOptions, SimWorld
 from sofia_camera.software import SoftwareCamera
+from sofia_replay.preload import shm_enabled
 from sofia_replay.synth.camera import look_at
 from sofia_schemas import pointcloud, zenoh_config
 from sofia_schemas.transforms import invert
 
 MODES = ((640, 480, ()), (848, 480, ()), (1280, 720, ()), (848, 480, ("spatial", "temporal")))
 FPS = 30
+PATHS = ("ours", "plain", "align", "base")
+SUBSCRIBER = """
+import sys, zenoh
+from sofia_schemas import zenoh_config
+with zenoh.open(zenoh_config()) as session:
+    sub = session.declare_subscriber(sys.argv[1], lambda sample: sample.payload)
+    print("ready", flush=True)
+    sys.stdin.readline()
+"""
 
 
 class Baseline:
@@ -94,18 +111,18 @@ def bench_mode(
     publishers = Publishers(
         lambda cloud, att: ours_pub.put(cloud, attachment=att), lambda info: ours_pub.put(info)
     )
+    shm = CloudBuffers(shm_enabled())
     services = {
         who: CameraService(camera, CloudPipeline(FilterChain(filters), DepthCorrection(), max_skew_ms=16.0,
-                                                 align=align), publishers, Settings(max_skew_ms=16.0))
-        for who, align in (("ours", "registration"), ("align", "librealsense"))
+                                                 align=align, buffers=buffers), publishers, Settings(max_skew_ms=16.0))
+        for who, align, buffers in (("ours", "registration", shm), ("plain", "registration", None),
+                                    ("align", "librealsense", None))
     }  # fmt: skip
     baseline = Baseline(filters)
-    out: dict[str, list[float]] = {
-        f"{who}_{what}": [] for who in ("ours", "align", "base") for what in ("ms", "cpu")
-    }
+    out: dict[str, list[float]] = {f"{who}_{what}": [] for who in PATHS for what in ("ms", "cpu")}
     t_ms = 1000.0
     for k in range(n + 3):
-        for who in ("ours", "align", "base"):
+        for who in PATHS:
             t_ms += 1000.0 / FPS
             camera.inject(depth, rgb, t_ms)
             pair = camera.wait_pair(2.0)
@@ -122,6 +139,7 @@ def bench_mode(
     camera.close()
     for service in services.values():
         assert service.counters["published"] == n + 3, service.counters
+    out["shm"] = [shm.direct, shm.copied, shm.fallbacks]
     return out
 
 
@@ -132,25 +150,39 @@ def main() -> int:
     budget = 1000.0 / FPS / 3
     print(f"{args.frames} frames per resolution at {FPS} Hz through rs.software_device; "
           f"budget 1/3 frame = {budget:.1f} ms; {os.cpu_count()} CPUs, load {os.getloadavg()[0]:.1f}\n")  # fmt: skip
-    print("| resolution | ours min / p50 / p95 (ms) | ours with rs.align p50 (ms) | baseline min / p50 / p95 (ms) "
-          "| baseline / ours (p50) | CPU ours / with rs.align / baseline (ms per frame) "
+    print(f"clouds of ours: Zenoh shared memory {'on' if shm_enabled() else 'off ($SOFIA_ZENOH_SHM)'}\n")
+    print("| resolution | ours min / p50 / p95 (ms) | ours with plain put p50 (ms) | ours with rs.align p50 (ms) "
+          "| baseline min / p50 / p95 (ms) | baseline / ours (p50) "
+          "| CPU ours / plain put / with rs.align / baseline (ms per frame) | ours in SHM / copied / fell back "
           "| latency p50 within 1/3 frame | CPU within 1/3 frame |")  # fmt: skip
-    print("|---|---:|---:|---:|---:|---:|---|---|")
+    print("|---|---:|---:|---:|---:|---:|---:|---:|---|---|")
     missed = []
+    key = f"bench/camera/{os.getpid()}"
+    sub = subprocess.Popen([sys.executable, "-c", SUBSCRIBER, f"{key}/**"], stdin=subprocess.PIPE,
+                           stdout=subprocess.PIPE, text=True)  # fmt: skip
+    assert sub.stdout is not None and sub.stdout.readline().strip() == "ready"
     with zenoh.open(zenoh_config()) as session:
+        probe = session.declare_publisher(f"{key}/ours")
+        while not probe.matching_status:  # the subscriber is known before the first frame
+            time.sleep(0.05)
         for w, h, filters in MODES:
             r = bench_mode(session, w, h, filters, args.frames)
             o50, o95 = np.percentile(r["ours_ms"], [50, 95])
             b50, b95 = np.percentile(r["base_ms"], [50, 95])
             cpu_o, cpu_b = statistics.median(r["ours_cpu"]), statistics.median(r["base_cpu"])
             a50, cpu_a = statistics.median(r["align_ms"]), statistics.median(r["align_cpu"])
+            p50, cpu_p = statistics.median(r["plain_ms"]), statistics.median(r["plain_cpu"])
             ok = o50 <= budget
             name = f"{w}x{h}" + (f" + {','.join(filters)}" if filters else "")
             missed += [] if ok else [name]
             o0, b0 = min(r["ours_ms"]), min(r["base_ms"])
-            print(f"| {name} | {o0:.1f} / {o50:.1f} / {o95:.1f} | {a50:.1f} | {b0:.1f} / {b50:.1f} / {b95:.1f} | "
-                  f"{b50 / o50:.2f}x | {cpu_o:.1f} / {cpu_a:.1f} / {cpu_b:.1f} | {'yes' if ok else 'NO'} ({o50 / budget:.2f} of it) | "
+            print(f"| {name} | {o0:.1f} / {o50:.1f} / {o95:.1f} | {p50:.1f} | {a50:.1f} | {b0:.1f} / {b50:.1f} / {b95:.1f} | "
+                  f"{b50 / o50:.2f}x | {cpu_o:.1f} / {cpu_p:.1f} / {cpu_a:.1f} / {cpu_b:.1f} | {' / '.join(str(int(v)) for v in r['shm'])} | "
+                  f"{'yes' if ok else 'NO'} ({o50 / budget:.2f} of it) | "
                   f"{'yes' if cpu_o <= budget else 'NO'} ({cpu_o / budget:.2f} of it) |", flush=True)  # fmt: skip
+        probe.undeclare()
+    sub.kill()
+    sub.wait()
     verdict = "met" if not missed else "missed at " + ", ".join(missed)
     print(f"\ntarget (cloud in <= 1/3 frame period at p50): {verdict}; load average {os.getloadavg()[0]:.1f} on "
           f"{os.cpu_count()} CPUs (wall-clock latency includes waiting for a CPU; CPU time does not)")  # fmt: skip

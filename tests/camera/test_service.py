@@ -108,6 +108,9 @@ def test_simulated_camera_feeds_the_detector(sofia_proc, robot_id: str, tmp_path
     assert all(m.simulated and m.synced and not m.depth_corrected for _, m in clouds)
     assert set(infos) & set(stamps), "camera info is stamped like the clouds"
     assert status.state == "ok" and status.info["simulated"] is True and status.counters["published"] > 0
+    assert status.info["shm"] is True and status.counters["shm_direct"] > 0, "clouds written into Zenoh SHM"
+    assert status.counters["shm_copied"] == 0
+    assert status.counters["shm_direct"] + status.counters["shm_fallbacks"] >= status.counters["published"]
     assert rec.returncode == 0, rec.stdout + rec.stderr
     topics = [m.topic for m in iter_messages(out)]
     for topic in (TOPIC_CAMERA_POINTS, TOPIC_CAMERA_INFO, TOPIC_FLANGE_POSE):

@@ -73,7 +73,7 @@ class ShmBuffers:
     def payload(self, data: bytes | bytearray, stamp_ns: int | None) -> Any:
         """What to put for ``data`` (restamped to ``stamp_ns`` unless None): a shared-memory buffer
         for a large message, else the (restamped) bytes."""
-        buf = self._alloc(len(data)) if self.enabled and len(data) >= self.MIN_BYTES else None
+        buf = self.alloc(len(data)) if self.enabled and len(data) >= self.MIN_BYTES else None
         if buf is None:
             return data if stamp_ns is None else restamp_in_place(data, stamp_ns)
         buf[:] = data
@@ -81,7 +81,9 @@ class ShmBuffers:
             buf[:HEADER_BYTES] = restamp(bytes(data[:HEADER_BYTES]), stamp_ns)
         return buf
 
-    def _alloc(self, size: int) -> Any:
+    def alloc(self, size: int) -> Any:
+        """A shared-memory buffer (``zenoh.shm.ZShmMut``) of ``size`` bytes from the pool, or None when
+        every buffer is still held (counted in ``fallbacks``)."""
         from zenoh.shm import GarbageCollect, ShmProvider
 
         if self._provider is None or size * self.POOL_MESSAGES > self._pool_bytes:

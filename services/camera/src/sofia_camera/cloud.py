@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import struct
 from collections.abc import Callable
+from typing import Any
 
 import numba
 import numpy as np
@@ -18,6 +19,7 @@ from sofia_schemas import pointcloud
 from sofia_schemas.cloud import XYZRGB_FIELDS, PointCloud2
 
 from .intrinsics import Intrinsics
+from .shm import CloudBuffers
 
 FRAME_ID = "camera_color_optical_frame"
 POINT_STEP = 16
@@ -62,8 +64,10 @@ class CloudEncoder:
         intr: Intrinsics,
         stamp_ns: int,
         correct: Callable[[np.ndarray], np.ndarray] | None = None,
-    ) -> bytearray:
-        """CDR bytes of the organized cloud.
+        buffers: CloudBuffers | None = None,
+    ) -> Any:
+        """CDR bytes of the organized cloud: a ``bytearray``, or with ``buffers`` what to put (a Zenoh
+        shared-memory buffer the message was written into, see :class:`~sofia_camera.shm.CloudBuffers`).
 
         z_m: (H, W) float32 depth along the colour optical axis, metres, on the colour grid (NaN, inf or
         <= 0: no depth). bgra: (H, W, 4) uint8 colour image (librealsense ``bgra8``). intr: the colour
@@ -75,11 +79,14 @@ class CloudEncoder:
         head = bytearray(self._head)
         sec, nsec = divmod(int(stamp_ns), 1_000_000_000)
         struct.pack_into("<iI", head, 4, sec, nsec)
-        out = bytearray(len(head) + n * POINT_STEP + 1)
-        out[: len(head)] = head
-        body = np.frombuffer(out, dtype=np.uint8, count=n * POINT_STEP, offset=len(head)).reshape(
-            n, POINT_STEP
-        )
+        size = len(head) + n * POINT_STEP + 1
+        if buffers is None:
+            payload = bytearray(size)
+            view = np.frombuffer(payload, np.uint8)
+        else:
+            view, payload = buffers.take(size)
+        view[: len(head)] = np.frombuffer(head, np.uint8)
+        body = view[len(head) : size - 1].reshape(n, POINT_STEP)
         z = np.ascontiguousarray(z_m, dtype=np.float32).reshape(n)
         colour = np.ascontiguousarray(bgra).view("<u4").reshape(n)
         if correct is None:
@@ -90,8 +97,8 @@ class CloudEncoder:
             body.view("<f4")[:, :3] = correct(points)
             body.view("<u4")[:, 3] = colour
             missing = int(np.isnan(z).sum())
-        out[-1] = 0 if missing else 1
-        return out
+        view[size - 1] = 0 if missing else 1
+        return payload if buffers is None else buffers.ready(payload)
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -17,14 +18,16 @@ from .intrinsics import Intrinsics
 from .meta import CloudMeta
 from .processing import Aligner, FilterChain
 from .registration import DepthRegistration
+from .shm import CloudBuffers
 from .streams import FramePair, FrameSource
 
 
 @dataclass
 class Output:
-    """A built cloud: CDR bytes, its CameraInfo, facts, and how long it took (ms)."""
+    """A built cloud: CDR bytes (a ``bytearray``, or the Zenoh shared-memory buffer they were written
+    into), its CameraInfo, facts, and how long it took (ms)."""
 
-    cloud: bytearray
+    cloud: bytearray | Any
     camera_info: bytes
     meta: CloudMeta
     build_ms: float
@@ -39,11 +42,13 @@ class CloudPipeline:
 
     align: how depth is put on the colour grid: ``registration`` (:class:`DepthRegistration`, the
     default; colour lens models it cannot project fall back to librealsense) or ``librealsense``
-    (``rs.align``).
+    (``rs.align``). buffers: where clouds are written (Zenoh shared memory, see
+    :class:`~sofia_camera.shm.CloudBuffers`); None: a ``bytearray`` each.
     """
 
     def __init__(self, filters: FilterChain, correction: DepthCorrection, max_skew_ms: float,
-                 simulated: bool = False, frame_id: str = FRAME_ID, align: str = "registration") -> None:  # fmt: skip
+                 simulated: bool = False, frame_id: str = FRAME_ID, align: str = "registration",
+                 buffers: CloudBuffers | None = None) -> None:  # fmt: skip
         if align not in ALIGN_MODES:
             raise BadOption("--align", align, f"use one of {list(ALIGN_MODES)}")
         self.filters = filters
@@ -56,6 +61,7 @@ class CloudPipeline:
         self.aligner = Aligner()
         self.registration = DepthRegistration()
         self.encoder = CloudEncoder(frame_id)
+        self.buffers = buffers
 
     def warm_up(self) -> None:
         """Compile (or load from numba's cache) the registration and the cloud writer on a tiny frame,
@@ -88,7 +94,7 @@ class CloudPipeline:
         bgra = np.asanyarray(pair.color.get_data())
         correction, source_name = self.correction.current()
         correct = None if correction is None else (lambda p: self.correction.apply(p, correction))
-        cloud = self.encoder.encode(z_m, bgra, intr, stamp_ns, correct)
+        cloud = self.encoder.encode(z_m, bgra, intr, stamp_ns, correct, self.buffers)
         build_ms = (time.perf_counter() - t0) * 1e3
         meta = CloudMeta(
             stamp_ns=stamp_ns, color_stamp_ns=color_ns, skew_ms=round(pair.skew_ms, 3),

@@ -2,7 +2,9 @@
 
 - publishes organized clouds on ``Keys(robot).camera_points`` (CDR PointCloud2, colour optical
   frame, xyz + rgb, NaN where no depth), each with a :class:`~sofia_camera.meta.CloudMeta`
-  attachment, and ``Keys(robot).camera_info`` (CDR CameraInfo, same stamp);
+  attachment, and ``Keys(robot).camera_info`` (CDR CameraInfo, same stamp); each cloud is written
+  straight into a Zenoh shared-memory buffer (:class:`~sofia_camera.shm.CloudBuffers`; a plain put,
+  counted in status ``shm_fallbacks``, when ``$SOFIA_ZENOH_SHM=off`` or the pool is exhausted);
 - follows ``Keys(robot).calibration_result`` for the depth correction;
 - ``Keys(robot).status("camera")``: :class:`ServiceStatus` every second, and queryable.
 
@@ -22,6 +24,7 @@ from dataclasses import dataclass, field
 from typing import Any, Literal
 
 import zenoh
+from sofia_replay.preload import shm_enabled
 from sofia_schemas.keys import ENCODING_CDR_CAMERA_INFO, ENCODING_CDR_POINTCLOUD2, Keys
 from sofia_schemas.messages import ServiceStatus, now_ns
 from sofia_schemas.service import StatusEndpoint, StopFlag, run_worker
@@ -32,6 +35,7 @@ from .errors import CameraError, FramesStopped
 from .intrinsics import d435_spec
 from .pipeline import CloudPipeline
 from .processing import FilterChain
+from .shm import CloudBuffers
 from .streams import FramePair, FrameSource
 
 log = logging.getLogger("sofia.camera")
@@ -41,7 +45,7 @@ FIRST_FRAME_S = 5.0  # a camera just opened may take this long to deliver its fi
 
 @dataclass
 class Publishers:
-    points: Callable[[bytes | bytearray, bytes], None]
+    points: Callable[[Any, bytes], None]  # the cloud: bytes, or a Zenoh shared-memory buffer
     camera_info: Callable[[bytes], None]
 
 
@@ -181,6 +185,13 @@ class CameraService:
         info.update(fps=round(self.fps(), 2), filters=self.pipeline.filters.describe(),
                     depth_correction=self.pipeline.correction.describe(),
                     depth_corrected=self.pipeline.correction.current()[0] is not None)  # fmt: skip
+        buffers = self.pipeline.buffers
+        info["shm"] = buffers is not None and buffers.enabled
+        info["shm_detail"] = None if buffers is None else buffers.detail
+        if buffers is not None:  # clouds written into Zenoh shared memory; put as bytes (pool exhausted)
+            counters.update(
+                shm_direct=buffers.direct, shm_copied=buffers.copied, shm_fallbacks=buffers.fallbacks
+            )
         return ServiceStatus(service="camera", stamp_ns=now_ns(), state=state, detail=detail,
                              counters=counters, info=info)  # fmt: skip
 
@@ -231,6 +242,7 @@ def main(config: ServiceConfig) -> int:
         max_skew_ms,
         simulated=config.sim is not None,
         align=config.align,
+        buffers=CloudBuffers(shm_enabled()),
     )
     info: dict[str, Any] = {"mode": f"{config.width}x{config.height}@{config.fps}", "preset": config.preset,
                             "simulated": config.sim is not None, "align": config.align}  # fmt: skip

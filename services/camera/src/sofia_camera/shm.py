@@ -1,0 +1,158 @@
+"""Where a cloud message is written: straight into a Zenoh shared-memory buffer, so that publishing it
+copies nothing and a subscriber on the same host maps it (one on another host gets it over the
+network as before).
+
+Buffers come from the replayer's pool (:class:`~sofia_replay.preload.ShmBuffers`: a few messages of
+the largest size, reused once subscribers drop them). zenoh-python 1.10 gives a ``ZShmMut`` no
+buffer protocol, only slice assignment; the writer reaches its memory through the address Zenoh
+reports for it, used only after checking that the address lies in one of this process's Zenoh
+segments in ``/dev/shm`` and that bytes assigned through Zenoh read back there. When that check
+fails the message is written into memory of its own and copied into the buffer once (``copied``);
+when SHM is off or the pool is exhausted (every buffer still held) it is published as a plain put
+(``fallbacks``).
+"""
+
+from __future__ import annotations
+
+import ctypes
+import logging
+import os
+import re
+import secrets
+from typing import Any
+
+import numpy as np
+import zenoh
+from sofia_replay.preload import ShmBuffers
+
+log = logging.getLogger(__name__)
+_ADDRESS = re.compile(r"buf: PtrInSegment \{ ptr: 0x([0-9a-f]+) \}")
+_MARK = 16  # bytes checked at each end of a buffer
+SHM_DIR = "/dev/shm"
+SHM_RESERVE = 16 << 20  # left free in /dev/shm: the size of Zenoh's own transport pool
+
+
+def _zenoh_segments() -> list[tuple[int, int]]:
+    """(start, end) of this process's mappings of Zenoh segments (``/dev/shm/*.zenoh``)."""
+    ranges = []
+    try:
+        with open("/proc/self/maps") as maps:
+            for line in maps:
+                fields = line.split()
+                if len(fields) >= 6 and fields[5].startswith(f"{SHM_DIR}/") and fields[5].endswith(".zenoh"):
+                    start, end = fields[0].split("-")
+                    ranges.append((int(start, 16), int(end, 16)))
+    except OSError:  # no /proc: the address cannot be checked, messages are copied in
+        pass
+    return ranges
+
+
+def _shm_free() -> int | None:
+    """Bytes free in ``/dev/shm`` (None: no such file system here)."""
+    try:
+        st = os.statvfs(SHM_DIR)
+    except OSError:
+        return None
+    return st.f_bavail * st.f_frsize
+
+
+class CloudBuffers:
+    """Buffers of ``size`` bytes to write a message into, and what to put for it.
+
+    enabled: False (``$SOFIA_ZENOH_SHM=off``, or a Zenoh without shared memory): every message is
+    written into a ``bytearray`` and put as such. Also turned off (with a warning, ``detail`` says
+    why) when ``/dev/shm`` has no room for the pool (a container's default is 64 MB) or Zenoh cannot
+    create it.
+    """
+
+    def __init__(self, enabled: bool = True) -> None:
+        self.pool = ShmBuffers(enabled)
+        self.direct = 0  # messages written straight into shared memory
+        self.copied = 0  # written beside it, then copied in (the buffer's address could not be checked)
+        self._segments: list[tuple[int, int]] = []
+        self._reachable = True  # False once a buffer's address failed its check: copy from then on
+        self._spare = bytearray()
+        self._copy_into: Any = None  # the buffer the spare's message goes into at ``ready``
+        self._checked_size = 0
+        self._wanted = enabled
+        self._refused = 0  # put as plain bytes because the pool could not be made
+        self.detail = "" if enabled else "off"
+
+    @property
+    def enabled(self) -> bool:
+        return self.pool.enabled
+
+    @property
+    def fallbacks(self) -> int:
+        """Messages put as plain bytes although SHM is wanted: the pool was exhausted or not made."""
+        return self.pool.fallbacks + self._refused
+
+    def take(self, size: int) -> tuple[np.ndarray, Any]:
+        """(view, payload): a writable (size,) uint8 array to write the message into, and the object to
+        put once it is written (call :meth:`ready` first)."""
+        self._copy_into = None
+        if self.enabled and size != self._checked_size:
+            self._check_room(size)
+        try:
+            buf = self.pool.alloc(size) if self.enabled and size >= ShmBuffers.MIN_BYTES else None
+        except zenoh.ZError as e:  # the pool cannot be created
+            self._turn_off(f"Zenoh cannot create a shared-memory pool: {e}")
+            buf = None
+        if buf is None:
+            self._refused += self._wanted and not self.enabled and size >= ShmBuffers.MIN_BYTES
+            data = bytearray(size)
+            return np.frombuffer(data, np.uint8), data
+        view = self._mapped(buf, size) if self._reachable else None
+        if view is not None:
+            self.direct += 1
+            return view, buf
+        if len(self._spare) != size:
+            self._spare = bytearray(size)
+        self._copy_into = buf
+        return np.frombuffer(self._spare, np.uint8), buf
+
+    def ready(self, payload: Any) -> Any:
+        """The payload to put once the view of the last :meth:`take` holds the message (a buffer whose
+        memory could not be reached gets the message copied in now)."""
+        if self._copy_into is not None and payload is self._copy_into:
+            payload[:] = self._spare
+            self.copied += 1
+        self._copy_into = None
+        return payload
+
+    def _check_room(self, size: int) -> None:
+        self._checked_size = size
+        need, free = size * ShmBuffers.POOL_MESSAGES, _shm_free()
+        if free is not None and free < need + SHM_RESERVE:
+            self._turn_off(f"{SHM_DIR} has {free / 1e6:.0f} MB free, a pool of {ShmBuffers.POOL_MESSAGES} "
+                           f"clouds needs {need / 1e6:.0f} MB (+{SHM_RESERVE >> 20} MB kept free)")  # fmt: skip
+
+    def _turn_off(self, reason: str) -> None:
+        log.warning("clouds put as plain bytes, not from Zenoh shared memory: %s", reason)
+        self.pool.enabled = False
+        self.detail = reason
+
+    def _mapped(self, buf: Any, size: int) -> np.ndarray | None:
+        """The memory of ``buf`` as a writable uint8 array, or None when its address cannot be checked."""
+        found = _ADDRESS.search(repr(buf))
+        if found is None or size < 2 * _MARK:
+            return self._unreachable("this Zenoh does not report the buffer's address")
+        address = int(found.group(1), 16)
+        if not any(a <= address and address + size <= b for a, b in self._segments):
+            self._segments = _zenoh_segments()
+            if not any(a <= address and address + size <= b for a, b in self._segments):
+                return self._unreachable(f"the buffer at {address:#x} is not in a mapped Zenoh segment")
+        view = np.frombuffer(memoryview((ctypes.c_uint8 * size).from_address(address)).cast("B"), np.uint8)
+        head, tail = secrets.token_bytes(_MARK), secrets.token_bytes(_MARK)
+        buf[:_MARK] = head
+        buf[size - _MARK : size] = tail
+        if view[:_MARK].tobytes() != head or view[-_MARK:].tobytes() != tail:
+            return self._unreachable(f"the buffer at {address:#x} does not read back")
+        return view
+
+    def _unreachable(self, reason: str) -> np.ndarray | None:
+        """None (no view), after saying why: later buffers get their messages copied in."""
+        log.warning("clouds written beside Zenoh shared memory and copied in: %s", reason)
+        self._reachable = False
+        self.detail = f"copied in: {reason}"
+        return None

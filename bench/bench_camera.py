@@ -39,7 +39,8 @@ from sofia_camera.sim import SimRenderer
 from sofia_camera.sim_scene import SimOptions, SimWorld
 from sofia_camera.software import SoftwareCamera
 from sofia_replay.synth.camera import look_at
-from sofia_schemas import pointcloud, zenoh_config
+from sofia_runtime import zenoh_config
+from sofia_schemas import pointcloud
 from sofia_schemas.transforms import invert
 
 MODES = ((640, 480, ()), (848, 480, ()), (1280, 720, ()), (848, 480, ("spatial", "temporal")))

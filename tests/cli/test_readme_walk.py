@@ -30,7 +30,7 @@ from sofia_calibrator.fk import panda_fk
 from sofia_calibrator.simulate import make_problem
 from sofia_replay import iter_messages, read_truth
 from sofia_schemas import pointcloud
-from sofia_schemas.launcher import sofia_executable
+from sofia_system.launcher import sofia_executable
 
 from .test_readme_commands import ROOT, readme_commands
 

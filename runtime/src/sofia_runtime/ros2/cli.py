@@ -5,7 +5,8 @@ from __future__ import annotations
 import argparse
 import os
 
-from ..keys import add_robot_arg, default_robot
+from sofia_schemas.keys import add_robot_arg, default_robot
+
 from ..output import add_json_option, emit
 from ..zenoh_config import ZenohOptions, add_zenoh_args
 

@@ -54,7 +54,7 @@ def _serve(args: argparse.Namespace) -> int:
 
 
 def _types(args: argparse.Namespace) -> int:
-    from .typesupport import dds_type_name, shipped_types, type_hash
+    from sofia_schemas.ros2.typesupport import dds_type_name, shipped_types, type_hash
 
     for name in shipped_types():
         dds, rihs = dds_type_name(name), type_hash(name)

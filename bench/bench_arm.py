@@ -26,11 +26,11 @@ from pathlib import Path
 import numpy as np
 import zenoh
 from sofia_arm.sim import start_sim
-from sofia_schemas.client import ask
+from sofia_runtime.client import ask
+from sofia_runtime.zenoh_config import zenoh_config
 from sofia_schemas.keys import ENCODING_JSON, Keys
 from sofia_schemas.messages import ArmState, ServiceStatus
 from sofia_schemas.rosmsg import decode_flange_pose
-from sofia_schemas.zenoh_config import zenoh_config
 
 SOFIA = str(Path(sys.executable).with_name("sofia"))
 Q_A = [0.3, -0.3, 0.2, -2.0, 0.1, 1.8, 0.3]

@@ -30,11 +30,11 @@ def main() -> int:
     from sofia_calibrator.online import make_sample
     from sofia_calibrator.sample_log import encode
     from sofia_calibrator.simulate import make_problem
-    from sofia_schemas.client import ask
+    from sofia_runtime.client import ask
+    from sofia_runtime.zenoh_config import open_session
     from sofia_schemas.keys import Keys
     from sofia_schemas.messages import CalibrationResult
     from sofia_schemas.messages.calibration import CalibrationSamples
-    from sofia_schemas.zenoh_config import open_session
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--samples", type=int, default=900)

@@ -50,7 +50,8 @@ from sofia_camera.sim_scene import SimOptions, SimWorld
 from sofia_camera.software import SoftwareCamera
 from sofia_replay.preload import shm_enabled
 from sofia_replay.synth.camera import look_at
-from sofia_schemas import pointcloud, zenoh_config
+from sofia_runtime import zenoh_config
+from sofia_schemas import pointcloud
 from sofia_schemas.transforms import invert
 
 MODES = ((640, 480, ()), (848, 480, ()), (1280, 720, ()), (848, 480, ("spatial", "temporal")))
@@ -58,7 +59,7 @@ FPS = 30
 PATHS = ("ours", "plain", "align", "base")
 SUBSCRIBER = """
 import sys, zenoh
-from sofia_schemas import zenoh_config
+from sofia_runtime import zenoh_config
 with zenoh.open(zenoh_config()) as session:
     sub = session.declare_subscriber(sys.argv[1], lambda sample: sample.payload)
     print("ready", flush=True)

@@ -32,8 +32,9 @@ from pathlib import Path
 
 import numpy as np
 import zenoh
-from sofia_schemas import Keys, pointcloud, zenoh_config
-from sofia_schemas.memory import rss_bytes
+from sofia_runtime import zenoh_config
+from sofia_runtime.memory import rss_bytes
+from sofia_schemas import Keys, pointcloud
 from sofia_schemas.pointcloud import FLOAT32, FLOAT64, PointField
 
 REPO = Path(__file__).resolve().parents[1]

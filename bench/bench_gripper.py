@@ -25,9 +25,9 @@ import zenoh
 from sofia_gripper import Gripper, GripperConfig
 from sofia_gripper import packets as pk
 from sofia_gripper.control_table import STATE_BLOCK
+from sofia_runtime.zenoh_config import zenoh_config
 from sofia_schemas.keys import ENCODING_JSON, Keys
 from sofia_schemas.messages import GripperCommand, GripperResult
-from sofia_schemas.zenoh_config import zenoh_config
 
 SOFIA = str(Path(sys.executable).with_name("sofia"))
 RATE_WINDOW_S = 3.0

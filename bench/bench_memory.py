@@ -24,8 +24,9 @@ from pathlib import Path
 import numpy as np
 import zenoh
 from bench_fuzz import PeakRss, start
-from sofia_schemas import Keys, pointcloud, zenoh_config
-from sofia_schemas.memory import rss_bytes
+from sofia_runtime import zenoh_config
+from sofia_runtime.memory import rss_bytes
+from sofia_schemas import Keys, pointcloud
 
 OVERLOAD_S = 8.0
 SETTLE_S = 15.0

@@ -58,7 +58,7 @@ def subscribe(key: str, n: int, idle_s: float) -> None:
     """Count samples on ``key`` until ``n`` arrived or none for ``idle_s``; print a JSON line."""
     import threading
 
-    from sofia_schemas.zenoh_config import open_session
+    from sofia_runtime.zenoh_config import open_session
 
     arrivals: list[tuple[float, int, int]] = []
     done = threading.Event()
@@ -102,8 +102,8 @@ def collect(proc: subprocess.Popen[str]) -> list[tuple[float, int, int]]:
 def raw_zenoh_put(key: str, clouds: list[bytes]) -> None:
     """Baseline: one Zenoh publisher, clouds from memory, as fast as possible (reliable, BLOCK)."""
     import zenoh
+    from sofia_runtime.zenoh_config import open_session
     from sofia_schemas.keys import ENCODING_CDR_POINTCLOUD2
-    from sofia_schemas.zenoh_config import open_session
 
     with open_session() as session:
         pub = session.declare_publisher(

@@ -33,7 +33,7 @@ import uuid
 from pathlib import Path
 
 import numpy as np
-from sofia_schemas.memory import rss_bytes
+from sofia_runtime.memory import rss_bytes
 
 REPO = Path(__file__).resolve().parents[1]
 SOFIA = str(Path(sys.executable).with_name("sofia"))
@@ -48,7 +48,8 @@ def cpu_seconds(pid: int) -> float:
 def subscriber(robot: str, seconds: float, out: Path) -> None:
     """Runs in its own process: record arrival times of clouds and detections."""
     import zenoh
-    from sofia_schemas import Keys, pointcloud, zenoh_config
+    from sofia_runtime import zenoh_config
+    from sofia_schemas import Keys, pointcloud
     from sofia_schemas.messages import Detection
 
     keys = Keys(robot)

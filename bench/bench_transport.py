@@ -34,7 +34,7 @@ MODES = ("off", "on", "provider")
 
 
 def session_config(mode: str) -> object:
-    from sofia_schemas.zenoh_config import zenoh_config
+    from sofia_runtime.zenoh_config import zenoh_config
 
     return zenoh_config(env=dict(os.environ, SOFIA_ZENOH_SHM="off" if mode == "off" else "on"))
 

@@ -12,10 +12,11 @@ ENV PYTHONUNBUFFERED=1 PYTHONDONTWRITEBYTECODE=1 \
 WORKDIR /src
 COPY constraints.txt ./
 COPY schemas/ schemas/
+COPY runtime/ runtime/
 COPY replay/ replay/
 COPY services/calibrator/ services/calibrator/
 COPY services/arm/ services/arm/
-RUN pip install -c constraints.txt ./schemas ./replay ./services/calibrator "./services/arm[calibrate]"
+RUN pip install -c constraints.txt ./schemas ./runtime ./replay ./services/calibrator "./services/arm[calibrate]"
 
 RUN useradd --create-home --uid 10001 --user-group sofia
 USER sofia

@@ -8,9 +8,10 @@ ENV PYTHONUNBUFFERED=1 PYTHONDONTWRITEBYTECODE=1 \
 WORKDIR /src
 COPY constraints.txt ./
 COPY schemas/ schemas/
+COPY runtime/ runtime/
 COPY replay/ replay/
 COPY services/calibrator/ services/calibrator/
-RUN pip install -c constraints.txt "./schemas[ros]" ./replay ./services/calibrator
+RUN pip install -c constraints.txt "./schemas[ros]" ./runtime ./replay ./services/calibrator
 
 # The state directory belongs to the service user, so a fresh named volume mounted there does too.
 RUN useradd --create-home --uid 10001 --user-group sofia \

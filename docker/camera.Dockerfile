@@ -13,9 +13,10 @@ RUN apt-get update -qq && apt-get install -y -qq --no-install-recommends libusb-
 WORKDIR /src
 COPY constraints.txt ./
 COPY schemas/ schemas/
+COPY runtime/ runtime/
 COPY replay/ replay/
 COPY services/camera/ services/camera/
-RUN pip install -c constraints.txt "./schemas[ros]" ./replay ./services/camera
+RUN pip install -c constraints.txt "./schemas[ros]" ./runtime ./replay ./services/camera
 
 # plugdev: the group the RealSense udev rules give the camera's USB device to.
 RUN groupadd --system plugdev 2>/dev/null || true; \

@@ -13,9 +13,10 @@ ENV PYTHONUNBUFFERED=1 PYTHONDONTWRITEBYTECODE=1 \
 WORKDIR /src
 COPY constraints.txt ./
 COPY schemas/ schemas/
+COPY runtime/ runtime/
 COPY replay/ replay/
 COPY services/detector/ services/detector/
-RUN pip install -c constraints.txt "./schemas[ros]" ./replay ./services/detector
+RUN pip install -c constraints.txt "./schemas[ros]" ./runtime ./replay ./services/detector
 
 # The lab board as the default; compose mounts ./config/board.yaml over it.
 COPY config/board.yaml /etc/sofia/board.yaml

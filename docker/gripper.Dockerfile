@@ -1,5 +1,5 @@
 # SofIA gripper: the Dynamixel MX-64 of the Fin-Ray gripper (or its emulator with --emulate).
-# Only sofia-schemas and sofia-gripper: no Open3D, no ROS message libraries.
+# Only sofia-schemas, sofia-runtime and sofia-gripper: no Open3D, no SciPy, no ROS message libraries.
 # Build from the repository root:  docker build -f docker/gripper.Dockerfile -t sofia/gripper .
 FROM python:3.11-slim
 
@@ -9,8 +9,9 @@ ENV PYTHONUNBUFFERED=1 PYTHONDONTWRITEBYTECODE=1 \
 WORKDIR /src
 COPY constraints.txt ./
 COPY schemas/ schemas/
+COPY runtime/ runtime/
 COPY services/gripper/ services/gripper/
-RUN pip install -c constraints.txt ./schemas ./services/gripper
+RUN pip install -c constraints.txt ./schemas ./runtime ./services/gripper
 
 # dialout owns the USB serial adapters (/dev/ttyUSB*).
 RUN useradd --create-home --uid 10001 --user-group --groups dialout sofia

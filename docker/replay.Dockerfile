@@ -8,8 +8,9 @@ ENV PYTHONUNBUFFERED=1 PYTHONDONTWRITEBYTECODE=1 \
 WORKDIR /src
 COPY constraints.txt ./
 COPY schemas/ schemas/
+COPY runtime/ runtime/
 COPY replay/ replay/
-RUN pip install -c constraints.txt "./schemas[ros]" ./replay
+RUN pip install -c constraints.txt "./schemas[ros]" ./runtime ./replay
 
 RUN useradd --create-home --uid 10001 --user-group sofia
 USER sofia

@@ -8,7 +8,8 @@ ENV PYTHONUNBUFFERED=1 PYTHONDONTWRITEBYTECODE=1 \
 WORKDIR /src
 COPY constraints.txt ./
 COPY schemas/ schemas/
-RUN pip install -c constraints.txt "./schemas[ros]"
+COPY runtime/ runtime/
+RUN pip install -c constraints.txt "./schemas[ros]" "./runtime[ros]"
 
 RUN useradd --create-home --uid 10001 --user-group sofia
 USER sofia

@@ -8,8 +8,9 @@ ENV PYTHONUNBUFFERED=1 PYTHONDONTWRITEBYTECODE=1 \
 WORKDIR /src
 COPY constraints.txt ./
 COPY schemas/ schemas/
+COPY runtime/ runtime/
 COPY services/viz/ services/viz/
-RUN pip install -c constraints.txt "./schemas[ros]" ./services/viz
+RUN pip install -c constraints.txt "./schemas[ros]" ./runtime ./services/viz
 
 RUN useradd --create-home --uid 10001 --user-group sofia
 USER sofia

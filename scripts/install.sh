@@ -22,15 +22,16 @@ if [ ! -x "$VENV/bin/python" ]; then
 fi
 
 stamp="$VENV/.sofia-installed"
-inputs=$(cat constraints.txt requirements-dev.txt schemas/pyproject.toml replay/pyproject.toml \
-  services/*/pyproject.toml | sha256sum | cut -d' ' -f1)
+inputs=$(cat constraints.txt requirements-dev.txt schemas/pyproject.toml runtime/pyproject.toml \
+  system/pyproject.toml replay/pyproject.toml services/*/pyproject.toml | sha256sum | cut -d' ' -f1)
 if [ -f "$stamp" ] && [ "$(cat "$stamp")" = "$inputs" ]; then
   exit 0
 fi
 echo "[install] pip install (SofIA packages + test tools)"
 "$VENV/bin/python" -m pip install -q --disable-pip-version-check --upgrade pip
 "$VENV/bin/python" -m pip install -q --disable-pip-version-check -c constraints.txt \
-  -e "schemas[ros]" -e "replay[synth]" -e services/detector -e services/calibrator \
-  -e services/gripper -e "services/camera[sim]" -e services/viz -e "services/arm[sim,calibrate]" -r requirements-dev.txt
+  -e "schemas[ros]" -e "runtime[ros]" -e "system[demo]" -e "replay[synth]" -e services/detector \
+  -e services/calibrator -e services/gripper -e "services/camera[sim]" -e services/viz \
+  -e "services/arm[sim,calibrate]" -r requirements-dev.txt
 echo "$inputs" > "$stamp"
 echo "[install] done: $("$VENV/bin/sofia" --version) installed in $VENV"

@@ -16,7 +16,7 @@ from pathlib import Path
 
 import pytest
 import zenoh
-from sofia_schemas import client, zenoh_config
+from sofia_runtime import client, zenoh_config
 
 REPO = Path(__file__).resolve().parents[1]
 SOFIA = str(Path(sys.executable).with_name("sofia"))

@@ -12,6 +12,8 @@ REPO = Path(__file__).resolve().parents[1]
 BIN = Path(sys.executable).parent
 PACKAGES = [
     "schemas/src",
+    "runtime/src",
+    "system/src",
     "replay/src",
     "services/detector/src",
     "services/calibrator/src",

@@ -15,10 +15,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 import zenoh
+from sofia_runtime.zenoh_config import zenoh_config
 from sofia_schemas.keys import ENCODING_JSON, Keys
 from sofia_schemas.messages import ArmResult, ArmState, ErrorReply
 from sofia_schemas.rosmsg import decode_flange_pose, decode_joint_state
-from sofia_schemas.zenoh_config import zenoh_config
 
 from ..conftest import Proc
 

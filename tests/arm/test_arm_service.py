@@ -10,7 +10,7 @@ import time
 
 import numpy as np
 import pytest
-from sofia_schemas.client import ask
+from sofia_runtime.client import ask
 from sofia_schemas.kinematics import panda_fk, pose_matrix, rotation_to_quat_xyzw
 from sofia_schemas.messages import ArmResult, GripperState, ServiceStatus
 

@@ -116,7 +116,7 @@ def test_people_commands_build_arm_commands() -> None:
 
 
 def test_sofia_up_runs_the_arm_when_asked() -> None:
-    from sofia_schemas.launcher import add_up_args, default_specs
+    from sofia_system.launcher import add_up_args, default_specs
 
     parser = argparse.ArgumentParser()
     add_up_args(parser)

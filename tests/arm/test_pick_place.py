@@ -12,10 +12,10 @@ from pathlib import Path
 import numpy as np
 import zenoh
 from sofia_arm.pick_place import LIFT_M, plan_poses
-from sofia_schemas.client import ask
+from sofia_runtime.client import ask
+from sofia_runtime.zenoh_config import zenoh_config
 from sofia_schemas.keys import Keys
 from sofia_schemas.messages import ArmCommand, ArmResult, PickTarget
-from sofia_schemas.zenoh_config import zenoh_config
 
 from ..conftest import SOFIA, Proc
 

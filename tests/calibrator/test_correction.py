@@ -104,8 +104,8 @@ def test_the_detector_applies_the_correction_once(tmp_path: Path, monkeypatch: p
     import sofia_detector.service as svc
     from sofia_detector.frames import load_correction_file
     from sofia_detector.service import Detector, ServiceConfig
+    from sofia_runtime.zenoh_config import ZenohOptions
     from sofia_schemas import Board, pointcloud
-    from sofia_schemas.zenoh_config import ZenohOptions
 
     p, T, _ = _problem(12, 9, 0.95)
     cal = calibrate(p, T)

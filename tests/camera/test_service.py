@@ -19,13 +19,14 @@ from sofia_camera.meta import CloudMeta
 from sofia_camera.sim_scene import SimOptions, SimWorld
 from sofia_replay import iter_messages
 from sofia_replay.synth.camera import look_at
-from sofia_replay.system.bus import Collector, wait_until
-from sofia_schemas import Keys, pointcloud, zenoh_config
-from sofia_schemas.client import ask
+from sofia_runtime import zenoh_config
+from sofia_runtime.client import ask
+from sofia_schemas import Keys, pointcloud
 from sofia_schemas.keys import TOPIC_CAMERA_INFO, TOPIC_CAMERA_POINTS, TOPIC_FLANGE_POSE
 from sofia_schemas.messages import Detection, FlangePose, ServiceStatus
 from sofia_schemas.rosmsg import encode_flange_pose
 from sofia_schemas.transforms import invert, matrix_to_quat_xyzw
+from sofia_system.bus import Collector, wait_until
 
 from ..conftest import SOFIA
 

@@ -23,13 +23,13 @@ from sofia_camera.cloud import CloudEncoder
 from sofia_camera.intrinsics import Intrinsics
 from sofia_camera.shm import CloudBuffers
 from sofia_replay.preload import shm_enabled
-from sofia_schemas import zenoh_config
+from sofia_runtime import zenoh_config
 
 from .conftest import flange_above
 
 SUBSCRIBER = """
 import hashlib, json, sys, zenoh
-from sofia_schemas import zenoh_config
+from sofia_runtime import zenoh_config
 with zenoh.open(zenoh_config()) as session:
     def on(sample):
         data = sample.payload.to_bytes()

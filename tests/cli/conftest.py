@@ -24,7 +24,7 @@ from sofia_calibrator.fk import panda_fk
 from sofia_calibrator.simulate import make_problem
 from sofia_replay import iter_messages, read_truth
 from sofia_schemas import pointcloud
-from sofia_schemas.launcher import sofia_executable
+from sofia_system.launcher import sofia_executable
 
 ROOT = Path(__file__).parents[2]
 PC2 = "sensor_msgs/msg/PointCloud2"

@@ -9,7 +9,7 @@ import functools
 from collections.abc import Iterator
 
 import pytest
-from sofia_schemas import cli
+from sofia_runtime import cli
 
 # a float or int option must name its unit (or say it is a count, a ratio, an id ...)
 UNIT_WORDS = (

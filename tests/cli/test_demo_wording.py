@@ -7,10 +7,10 @@ import logging
 from pathlib import Path
 
 import pytest
-from sofia_replay.system.demo import launcher_log
-from sofia_replay.system.summary import Summary
-from sofia_replay.system.wording import MISSED_MM, describe_detection, transform_text
 from sofia_schemas.messages import DetectedObject, Detection
+from sofia_system.demo import launcher_log
+from sofia_system.summary import Summary
+from sofia_system.wording import MISSED_MM, describe_detection, transform_text
 
 RED = DetectedObject(field=(2, 2), allowed=True, center=(0.701, 0.042, 0.025), centroid=(0.7, 0.04, 0.02),
                      extents=(0.04, 0.04, 0.05), yaw=0.0, n_points=500, confidence=0.9)  # fmt: skip

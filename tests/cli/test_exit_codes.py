@@ -8,7 +8,7 @@ import subprocess
 from pathlib import Path
 
 import pytest
-from sofia_schemas import cli
+from sofia_runtime import cli
 
 from ..conftest import SOFIA
 

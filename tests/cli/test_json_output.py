@@ -1,6 +1,6 @@
 """One output convention for every `sofia` command that prints results: text for people by
 default, `--json` for machines (one JSON object, or one per line for a stream), offered through the
-one shared option (`sofia_schemas.output`). The commands without it are the ones that run until
+one shared option (`sofia_runtime.output`). The commands without it are the ones that run until
 stopped or talk with a person, listed here with the reason."""
 
 from __future__ import annotations
@@ -11,8 +11,8 @@ from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
-from sofia_schemas import cli
-from sofia_schemas.output import JSON_HELP, fields_text, jsonable
+from sofia_runtime import cli
+from sofia_runtime.output import JSON_HELP, fields_text, jsonable
 
 LAB = Path(__file__).parents[2] / "data" / "lab"
 

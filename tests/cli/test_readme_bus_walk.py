@@ -23,7 +23,7 @@ import threading
 import time
 from pathlib import Path
 
-from sofia_schemas.launcher import sofia_executable
+from sofia_system.launcher import sofia_executable
 
 from .conftest import run_sofia
 from .test_readme_walk import sofia_commands

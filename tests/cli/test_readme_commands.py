@@ -22,7 +22,7 @@ from pathlib import Path
 
 import pytest
 import yaml
-from sofia_schemas import cli
+from sofia_runtime import cli
 
 ROOT = Path(__file__).parents[2]
 README = ROOT / "README.md"

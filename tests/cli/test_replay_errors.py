@@ -17,9 +17,9 @@ from rosbags.rosbag1 import Writer
 from rosbags.typesys import Stores, get_typestore
 from sofia_replay.mcap_io import McapWriter
 from sofia_replay.stamps import stamp_ns
+from sofia_runtime.zenoh_config import open_session
 from sofia_schemas import FlangePose, Keys
 from sofia_schemas.keys import TOPIC_FLANGE_POSE
-from sofia_schemas.zenoh_config import open_session
 
 from ..conftest import SOFIA
 

@@ -13,7 +13,7 @@ import time
 import uuid
 from pathlib import Path
 
-from sofia_schemas.launcher import sofia_executable
+from sofia_system.launcher import sofia_executable
 
 ROOT = Path(__file__).parents[2]
 

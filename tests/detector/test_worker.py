@@ -13,9 +13,9 @@ from sofia_detector.frames import camera_to_base
 from sofia_detector.service import Detector, ServiceConfig
 from sofia_detector.worker import CloudJob, DropLog, WorkQueue, points_to_base
 from sofia_replay.synth import DEFAULT_T_FLANGE_CAM
+from sofia_runtime.zenoh_config import ZenohOptions
 from sofia_schemas import pointcloud
 from sofia_schemas.messages.calibration import CameraCorrection
-from sofia_schemas.zenoh_config import ZenohOptions
 
 STAMP_NS = 1_700_000_000_000_000_000
 

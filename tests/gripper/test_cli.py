@@ -9,7 +9,7 @@ from pathlib import Path
 from dynamixel_sdk import COMM_SUCCESS, PacketHandler, PortHandler
 from sofia_gripper import GripperConfig, save_config
 from sofia_gripper.cli import build_command, gripper_config
-from sofia_schemas.cli import build_parser
+from sofia_runtime.cli import build_parser
 
 from ..conftest import SOFIA, Proc
 from .conftest import wait_until

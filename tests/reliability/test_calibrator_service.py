@@ -15,12 +15,12 @@ from sofia_calibrator.online import make_sample
 from sofia_calibrator.sample_log import encode
 from sofia_calibrator.simulate import make_problem
 from sofia_calibrator.store import SampleStore
-from sofia_schemas import client
+from sofia_runtime import client
+from sofia_runtime.zenoh_config import open_session
 from sofia_schemas.keys import Keys
 from sofia_schemas.messages import BlobObservation, FlangePose
 from sofia_schemas.messages.calibration import CalibrationSample
 from sofia_schemas.rosmsg import encode_blob, encode_flange_pose
-from sofia_schemas.zenoh_config import open_session
 
 from ..conftest import query_json
 

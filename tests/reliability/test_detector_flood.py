@@ -10,7 +10,8 @@ import time
 import numpy as np
 import zenoh
 from sofia_detector.worker import QUERIES_MAX
-from sofia_schemas import Keys, client, zenoh_config
+from sofia_runtime import client, zenoh_config
+from sofia_schemas import Keys
 from sofia_schemas.messages import Detection, ErrorReply, ServiceStatus
 
 from .conftest import Service

@@ -12,8 +12,9 @@ import time
 
 import numpy as np
 import zenoh
-from sofia_schemas import Keys, pointcloud, zenoh_config
-from sofia_schemas.memory import rss_bytes
+from sofia_runtime import zenoh_config
+from sofia_runtime.memory import rss_bytes
+from sofia_schemas import Keys, pointcloud
 
 from .conftest import Service
 

@@ -10,11 +10,12 @@ import sys
 
 import pytest
 import zenoh
-from sofia_schemas import Keys, pointcloud, zenoh_config
-from sofia_schemas.client import query
-from sofia_schemas.limits import ECHO_CHARS, MESSAGE_CHARS, ClipFilter, clip, error_text, payload_limit
+from sofia_runtime import zenoh_config
+from sofia_runtime.client import query
+from sofia_runtime.limits import ECHO_CHARS, MESSAGE_CHARS, ClipFilter, clip, error_text, payload_limit
+from sofia_runtime.service import reply_error
+from sofia_schemas import Keys, pointcloud
 from sofia_schemas.messages import ErrorReply, GripperCommand
-from sofia_schemas.service import reply_error
 
 from .conftest import Service
 

@@ -6,8 +6,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import zenoh
-from sofia_schemas import Keys, pointcloud, zenoh_config
-from sofia_schemas.client import query
+from sofia_runtime import zenoh_config
+from sofia_runtime.client import query
+from sofia_schemas import Keys, pointcloud
 from sofia_schemas.messages import ErrorReply
 from sofia_schemas.pointcloud import FLOAT32, FLOAT64, PointField
 

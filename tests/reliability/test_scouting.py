@@ -14,8 +14,9 @@ import time
 from pathlib import Path
 
 import zenoh
-from sofia_schemas import Keys, zenoh_config
-from sofia_schemas.client import ask
+from sofia_runtime import zenoh_config
+from sofia_runtime.client import ask
+from sofia_schemas import Keys
 from sofia_schemas.messages import ServiceStatus
 
 from .conftest import Service

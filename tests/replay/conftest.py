@@ -9,7 +9,7 @@ from dataclasses import dataclass
 
 import pytest
 import zenoh
-from sofia_schemas.zenoh_config import open_session
+from sofia_runtime.zenoh_config import open_session
 
 
 @dataclass(frozen=True)

@@ -196,7 +196,7 @@ def test_info_json(recording: tuple[Path, dict[str, list[bytes]]], sofia_proc: C
 
 STALLED_SUBSCRIBER = """
 import sys, time
-from sofia_schemas.zenoh_config import open_session
+from sofia_runtime.zenoh_config import open_session
 with open_session() as s:
     sub = s.declare_subscriber(sys.argv[1], lambda sample: None)
     print("ready", flush=True)

@@ -12,9 +12,9 @@ from typing import Any
 import pytest
 import zenoh
 from sofia_replay.stamps import stamp_ns
+from sofia_runtime.zenoh_config import open_session
 from sofia_schemas import Keys
 from sofia_schemas.keys import TOPIC_CAMERA_POINTS, TOPIC_POINTS
-from sofia_schemas.zenoh_config import open_session
 
 from .test_play import N, recording  # noqa: F401 - the fixture
 

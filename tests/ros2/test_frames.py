@@ -8,13 +8,13 @@ from pathlib import Path
 import numpy as np
 import zenoh
 from sofia_replay.synth import make_scene, render_scene
+from sofia_runtime.zenoh_config import zenoh_config
 from sofia_schemas import Board, pointcloud
 from sofia_schemas.keys import ENCODING_CDR_POINTCLOUD2, Keys
 from sofia_schemas.messages import Detection, ErrorReply, ServiceStatus
 from sofia_schemas.ros2 import convert as cv
 from sofia_schemas.ros2.typesupport import encode
 from sofia_schemas.transforms import matrix_to_quat_xyzw
-from sofia_schemas.zenoh_config import zenoh_config
 
 STAMP_NS = 1_700_000_900_000_000_000
 

@@ -7,10 +7,10 @@ import struct
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
+from sofia_runtime.ros2.rmw import STATIC_QOS, Attachment, Qos, data_key, mangle
+from sofia_runtime.ros2.tfchain import TfChain
 from sofia_schemas.errors import PayloadError
 from sofia_schemas.ros2 import convert as cv
-from sofia_schemas.ros2.rmw import STATIC_QOS, Attachment, Qos, data_key, mangle
-from sofia_schemas.ros2.tfchain import TfChain
 from sofia_schemas.ros2.typesupport import MSGS_DIR, definition, shipped_types, type_hash
 from zenoh_ros2_sdk.qos import QosDurability, QosProfile, QosReliability
 from zenoh_ros2_sdk.utils import compute_service_type_hash, get_type_hash

@@ -13,10 +13,10 @@ import pytest
 import zenoh
 from sofia_replay.synth import make_scene, render_scene
 from sofia_replay.synth.record import write_scene_set
+from sofia_runtime.zenoh_config import ZenohOptions, zenoh_config
 from sofia_schemas import Board, pointcloud
 from sofia_schemas.keys import Keys
 from sofia_schemas.messages import Detection
-from sofia_schemas.zenoh_config import ZenohOptions, zenoh_config
 
 N_FRAMES = 6
 

@@ -35,8 +35,8 @@ import yaml
 import zenoh
 from packaging.requirements import Requirement
 from packaging.utils import canonicalize_name
+from sofia_runtime.zenoh_config import resolve, zenoh_config
 from sofia_schemas.keys import Keys
-from sofia_schemas.zenoh_config import resolve, zenoh_config
 
 from ..conftest import SOFIA
 
@@ -520,14 +520,15 @@ def test_the_probe_fails_without_the_needed_package() -> None:
     image = image_of("gripper")
     del image.packages["sofia-gripper"]  # as if the Dockerfile forgot it
     probe = finish_probe(start_probe(image, [["health", "gripper"], ["gripper", "serve", "--emulate"]]))
-    assert "health" in probe.owners["sofia-schemas"] and "sofia-gripper" not in probe.owners
+    assert "health" in probe.owners["sofia-runtime"] and "sofia-gripper" not in probe.owners
     assert probe.returncode == 2 and "invalid choice: 'gripper'" in probe.stderr, probe.stderr
 
 
 def test_gripper_image_pulls_no_open3d_while_the_detector_needs_it() -> None:
     gripper = dependency_closure(image_of("gripper"))
-    assert {"sofia-gripper", "dynamixel-sdk", "eclipse-zenoh"} <= gripper
+    assert {"sofia-gripper", "sofia-runtime", "dynamixel-sdk", "eclipse-zenoh"} <= gripper
     assert "open3d" not in gripper, "the gripper image would install open3d"
+    assert "scipy" not in gripper, "the gripper image would install scipy"
     detector = image_of("detector")
     assert "open3d" in dependency_closure(detector)  # so the check above can fail
     apt = next(r for r in detector.runs if "apt-get install" in r)

@@ -2,7 +2,7 @@
 detect queries, a calibration session replayed into the calibrator, gripper commands through the
 emulator, malformed payloads to every queryable, and services killed and restarted mid-stream.
 
-The services are started by :class:`sofia_schemas.launcher.Launcher`, the code behind ``sofia up``.
+The services are started by :class:`sofia_system.launcher.Launcher`, the code behind ``sofia up``.
 """
 
 from __future__ import annotations
@@ -21,11 +21,10 @@ import zenoh
 from sofia_detector.worker import BAD, STALE, UNMAPPED
 from sofia_replay import iter_messages, read_truth
 from sofia_replay.synth import write_calibration_session, write_scene_set
-from sofia_replay.system.bus import Collector, wait_until
-from sofia_schemas import Keys, zenoh_config
-from sofia_schemas.client import QueryError, ask
+from sofia_runtime import zenoh_config
+from sofia_runtime.client import QueryError, ask
+from sofia_schemas import Keys
 from sofia_schemas.keys import TOPIC_BLOB, TOPIC_FLANGE_POSE, TOPIC_POINTS
-from sofia_schemas.launcher import Launcher, ServiceSpec
 from sofia_schemas.messages import (
     CalibrationResult,
     Detection,
@@ -35,6 +34,8 @@ from sofia_schemas.messages import (
     ServiceStatus,
 )
 from sofia_schemas.transforms import rotation_angle
+from sofia_system.bus import Collector, wait_until
+from sofia_system.launcher import Launcher, ServiceSpec
 
 from ..conftest import SOFIA
 

@@ -12,6 +12,7 @@ from typing import Any
 
 import numpy as np
 import zenoh
+from sofia_runtime.zenoh_config import zenoh_config
 from sofia_schemas import pointcloud
 from sofia_schemas.keys import ENCODING_CDR_POINTCLOUD2, ENCODING_JSON, Keys
 from sofia_schemas.messages import CalibrationResult, DetectedObject, Detection, FlangePose
@@ -19,7 +20,6 @@ from sofia_schemas.ros2 import convert as cv
 from sofia_schemas.ros2.typesupport import decode
 from sofia_schemas.rosmsg import encode_flange_pose
 from sofia_schemas.transforms import matrix_to_quat_xyzw
-from sofia_schemas.zenoh_config import zenoh_config
 from websockets.sync.client import connect
 
 DEFAULT_T_FLANGE_CAM = np.array(

@@ -12,9 +12,9 @@ import logging
 import time
 from pathlib import Path
 
+from sofia_runtime.output import add_json_option, emit
+from sofia_runtime.zenoh_config import ZenohOptions, add_zenoh_args, open_session
 from sofia_schemas.keys import default_robot
-from sofia_schemas.output import add_json_option, emit
-from sofia_schemas.zenoh_config import ZenohOptions, add_zenoh_args, open_session
 
 log = logging.getLogger("sofia.replay")
 
@@ -108,7 +108,7 @@ def register_replay(sub: argparse._SubParsersAction) -> None:  # type: ignore[ty
 
 
 def _play(args: argparse.Namespace) -> int:
-    from sofia_schemas.service import StopFlag
+    from sofia_runtime.service import StopFlag
 
     from .convert import parse_topic_map
     from .player import Player, PlayOptions

@@ -23,6 +23,7 @@ from pathlib import Path
 from typing import Any
 
 import zenoh
+from sofia_runtime.service import StatusEndpoint, StopFlag
 from sofia_schemas.keys import (
     ENCODING_CDR_POINT,
     ENCODING_CDR_POINTCLOUD2,
@@ -31,7 +32,6 @@ from sofia_schemas.keys import (
 )
 from sofia_schemas.messages import ServiceStatus, now_ns
 from sofia_schemas.rosmsg import POINT_STAMPED, POINTCLOUD2, TRANSFORM_STAMPED
-from sofia_schemas.service import StatusEndpoint, StopFlag
 
 from .errors import BadMappingError, NoSuchTopicError, RecordingError
 from .mcap_io import RecordedMessage, iter_messages, summary

@@ -15,7 +15,7 @@ from pathlib import Path
 from typing import Any
 
 import zenoh
-from sofia_schemas.zenoh_config import shm_wanted
+from sofia_runtime.zenoh_config import shm_wanted
 
 from .mcap_io import RecordedMessage, iter_messages
 from .stamps import HEADER_FIRST, restamp

@@ -1,4 +1,6 @@
-"""SofIA data plane: bus messages, key expressions, the board, PointCloud2 CDR, Zenoh config.
+"""SofIA data plane, what travels on the bus: messages, key expressions, the board, PointCloud2 CDR.
+
+The Zenoh session, the status endpoint and the query client are in :mod:`sofia_runtime`.
 
 Frame math lives in :mod:`sofia_schemas.transforms` (needs the ``ros`` extra's scipy); it is not
 imported here, so the gripper installs without scipy.
@@ -36,7 +38,6 @@ from .messages import (
     now_ns,
 )
 from .pointcloud import PointCloud2, PointField
-from .zenoh_config import ZenohOptions, add_zenoh_args, open_session, zenoh_config
 
 __all__ = [
     "ALL_MESSAGES", "DEFAULT_ROBOT", "SCHEMA_VERSION", "BlobObservation", "Board",
@@ -44,6 +45,5 @@ __all__ = [
     "FlangePose", "GripperCommand", "GripperResult", "GripperState", "Keys", "Message",
     "MissingField", "PayloadError", "PickTarget", "PointCloud2", "PointCloudError",
     "PointCloudInfo", "PointField", "ServiceStatus", "SizeMismatch", "SofiaError",
-    "TruncatedMessage", "UnsupportedEncoding", "ZenohOptions", "add_zenoh_args", "keys",
-    "now_ns", "open_session", "pointcloud", "zenoh_config",
+    "TruncatedMessage", "UnsupportedEncoding", "keys", "now_ns", "pointcloud",
 ]  # fmt: skip

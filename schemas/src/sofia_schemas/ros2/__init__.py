@@ -1,13 +1,10 @@
-"""SofIA on the ROS 2 graph: the rmw_zenoh protocol, ROS 2 types shipped with the project, the
-conversions between SofIA's messages and standard ROS 2 messages, and the bridge service.
+"""ROS 2 on the wire: the ROS 2 types shipped with the project (CDR through rosbags, RIHS01 type
+hashes) and the conversions between SofIA's messages and standard ROS 2 messages. The rmw_zenoh
+protocol and the bridge service are in :mod:`sofia_runtime.ros2`.
 
 Needs the ``ros`` extra (rosbags for CDR, scipy for transforms).
 """
 
-from .rmw import Attachment, Graph, Node, Qos, data_key
 from .typesupport import UnknownRosTypeError, dds_type_name, shipped_types, type_hash
 
-__all__ = [
-    "Attachment", "Graph", "Node", "Qos", "UnknownRosTypeError", "data_key", "dds_type_name",
-    "shipped_types", "type_hash",
-]  # fmt: skip
+__all__ = ["UnknownRosTypeError", "dds_type_name", "shipped_types", "type_hash"]

@@ -19,7 +19,7 @@ import numpy as np
 import zenoh
 from sofia_calibrator.blob import find_blob
 from sofia_calibrator.errors import CalibrationError
-from sofia_schemas.client import QueryError
+from sofia_runtime.client import QueryError
 from sofia_schemas.keys import Keys
 from sofia_schemas.messages import ArmCommand, ArmResult, CalibrationResult
 from sofia_schemas.messages.arm import VIEW_WITHOUT_SAMPLE

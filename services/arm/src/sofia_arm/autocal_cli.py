@@ -10,9 +10,9 @@ import argparse
 import sys
 from typing import Any
 
+from sofia_runtime.output import add_json_option, emit
+from sofia_runtime.zenoh_config import ZenohOptions, add_zenoh_args, zenoh_config
 from sofia_schemas.keys import Keys, add_robot_arg, default_robot
-from sofia_schemas.output import add_json_option, emit
-from sofia_schemas.zenoh_config import ZenohOptions, add_zenoh_args, zenoh_config
 
 
 def register_auto(calibrate_parser: argparse.ArgumentParser) -> None:
@@ -51,7 +51,7 @@ def options(args: argparse.Namespace) -> dict[str, Any]:
 def run_auto(args: argparse.Namespace) -> int:
     import numpy as np
     import zenoh
-    from sofia_schemas.client import QueryError, ask
+    from sofia_runtime.client import QueryError, ask
     from sofia_schemas.messages import ArmCommand, ArmPhase, ArmResult
 
     keys = Keys(args.robot or default_robot())

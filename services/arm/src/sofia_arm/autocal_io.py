@@ -13,8 +13,8 @@ from typing import Protocol
 
 import numpy as np
 import zenoh
+from sofia_runtime.client import QueryError, ask
 from sofia_schemas import pointcloud
-from sofia_schemas.client import QueryError, ask
 from sofia_schemas.keys import ENCODING_JSON, Keys
 from sofia_schemas.messages import ArmPhase, CalibrationResult, CalibrationSample
 from sofia_schemas.messages.calibration import CalibrationSamples

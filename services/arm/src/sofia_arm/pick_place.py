@@ -15,7 +15,7 @@ from collections.abc import Callable
 
 import numpy as np
 import zenoh
-from sofia_schemas.client import QueryError, ask
+from sofia_runtime.client import QueryError, ask
 from sofia_schemas.keys import Keys
 from sofia_schemas.messages import ArmCommand, ArmResult, GripperCommand, GripperResult, PickTarget
 from sofia_schemas.transforms import make_transform, matrix_to_quat_xyzw

@@ -24,13 +24,13 @@ from typing import Literal
 
 import numpy as np
 import zenoh
+from sofia_runtime.service import StatusEndpoint, StopFlag, query_message, reply_error, reply_json, run_worker
+from sofia_runtime.zenoh_config import ZenohOptions, zenoh_config
 from sofia_schemas.errors import PayloadError
 from sofia_schemas.keys import ENCODING_CDR_JOINT_STATE, ENCODING_CDR_TRANSFORM, ENCODING_JSON, Keys
 from sofia_schemas.kinematics import rotation_to_quat_xyzw
 from sofia_schemas.messages import ArmCommand, ArmState, FlangePose, GripperState, ServiceStatus, now_ns
 from sofia_schemas.rosmsg import encode_flange_pose, encode_joint_state
-from sofia_schemas.service import StatusEndpoint, StopFlag, query_message, reply_error, reply_json, run_worker
-from sofia_schemas.zenoh_config import ZenohOptions, zenoh_config
 
 from .commands import Commands
 from .config import ArmConfig

@@ -20,7 +20,7 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-from sofia_schemas.service import stop_child
+from sofia_runtime.service import stop_child
 
 from .errors import SimError
 

@@ -7,10 +7,10 @@ import json
 import sys
 
 import numpy as np
+from sofia_runtime.output import add_json_option
+from sofia_runtime.zenoh_config import add_zenoh_args
 from sofia_schemas.keys import add_robot_arg
-from sofia_schemas.output import add_json_option
 from sofia_schemas.transforms import make_transform
-from sofia_schemas.zenoh_config import add_zenoh_args
 
 from .calibrate import CHILD_FRAME, PARENT_FRAME
 from .errors import InputMismatch

@@ -16,9 +16,18 @@ from typing import Any
 
 import numpy as np
 import zenoh
+from sofia_runtime.limits import PayloadTooLarge, check_payload, error_text
+from sofia_runtime.service import (
+    StatusEndpoint,
+    StopFlag,
+    query_payload,
+    reply_error,
+    reply_json,
+    run_worker,
+)
+from sofia_runtime.zenoh_config import ZenohOptions, zenoh_config
 from sofia_schemas import pointcloud, rosmsg
 from sofia_schemas.keys import ENCODING_JSON, Keys, default_robot
-from sofia_schemas.limits import PayloadTooLarge, check_payload, error_text
 from sofia_schemas.messages import ServiceStatus, now_ns
 from sofia_schemas.messages.calibration import (
     CalibrationFiles,
@@ -27,15 +36,6 @@ from sofia_schemas.messages.calibration import (
     CalibrationSamples,
     CalibrationSolveOptions,
 )
-from sofia_schemas.service import (
-    StatusEndpoint,
-    StopFlag,
-    query_payload,
-    reply_error,
-    reply_json,
-    run_worker,
-)
-from sofia_schemas.zenoh_config import ZenohOptions, zenoh_config
 
 from .errors import InputMismatch
 from .formats import to_yaml

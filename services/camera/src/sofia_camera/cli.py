@@ -6,9 +6,9 @@ import argparse
 import sys
 from pathlib import Path
 
+from sofia_runtime.output import add_json_option, emit, fields_text
+from sofia_runtime.zenoh_config import ZenohOptions, add_zenoh_args
 from sofia_schemas.keys import add_robot_arg, default_robot
-from sofia_schemas.output import add_json_option, emit, fields_text
-from sofia_schemas.zenoh_config import ZenohOptions, add_zenoh_args
 
 from .errors import CameraError
 

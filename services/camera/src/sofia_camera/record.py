@@ -15,10 +15,10 @@ from pathlib import Path
 
 import zenoh
 from sofia_replay.mcap_io import McapWriter
+from sofia_runtime.zenoh_config import ZenohOptions, zenoh_config
 from sofia_schemas import pointcloud
 from sofia_schemas.keys import TOPIC_CAMERA_INFO, TOPIC_CAMERA_POINTS, TOPIC_FLANGE_POSE, Keys
 from sofia_schemas.rosmsg import decode_flange_pose
-from sofia_schemas.zenoh_config import ZenohOptions, zenoh_config
 
 from .camera_info import CAMERA_INFO, decode_camera_info
 

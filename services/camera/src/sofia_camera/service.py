@@ -25,10 +25,10 @@ from typing import Any, Literal
 
 import zenoh
 from sofia_replay.preload import shm_enabled
+from sofia_runtime.service import StatusEndpoint, StopFlag, run_worker
+from sofia_runtime.zenoh_config import zenoh_config
 from sofia_schemas.keys import ENCODING_CDR_CAMERA_INFO, ENCODING_CDR_POINTCLOUD2, Keys
 from sofia_schemas.messages import ServiceStatus, now_ns
-from sofia_schemas.service import StatusEndpoint, StopFlag, run_worker
-from sofia_schemas.zenoh_config import zenoh_config
 
 from .correction import DepthCorrection
 from .errors import CameraError, FramesStopped

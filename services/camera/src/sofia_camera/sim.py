@@ -15,8 +15,8 @@ import time
 import numpy as np
 import zenoh
 from sofia_replay.synth.camera import Camera, add_sensor_effects, cast
+from sofia_runtime.service import LatestSlot
 from sofia_schemas.rosmsg import decode_flange_pose
-from sofia_schemas.service import LatestSlot
 
 from .intrinsics import Intrinsics, StreamSpec
 from .sim_scene import SimWorld

@@ -9,11 +9,11 @@ import os
 import sys
 from pathlib import Path
 
+from sofia_runtime.output import add_json_option
+from sofia_runtime.zenoh_config import ZenohOptions, add_zenoh_args
 from sofia_schemas import Board
 from sofia_schemas.keys import add_robot_arg, default_robot
 from sofia_schemas.messages import Detection
-from sofia_schemas.output import add_json_option
-from sofia_schemas.zenoh_config import ZenohOptions, add_zenoh_args
 
 from .detect import detect
 from .errors import DetectorError, WrongCloud

@@ -26,15 +26,15 @@ from typing import Any
 
 import numpy as np
 import zenoh
+from sofia_runtime.client import fetch_latest
+from sofia_runtime.limits import check_payload, error_text
+from sofia_runtime.service import StatusEndpoint, StopFlag, query_payload, reply_error, reply_json, run_worker
+from sofia_runtime.zenoh_config import ZenohOptions, zenoh_config
 from sofia_schemas import Board, pointcloud
-from sofia_schemas.client import fetch_latest
 from sofia_schemas.keys import ENCODING_JSON, Keys
-from sofia_schemas.limits import check_payload, error_text
 from sofia_schemas.messages import CalibrationResult, Detection, ServiceStatus, now_ns
 from sofia_schemas.messages.calibration import CameraCorrection, correction_applied
 from sofia_schemas.ros2.encoding import decode_flange, typed_cloud
-from sofia_schemas.service import StatusEndpoint, StopFlag, query_payload, reply_error, reply_json, run_worker
-from sofia_schemas.zenoh_config import ZenohOptions, zenoh_config
 
 from .detect import detect
 from .errors import DetectorBusy, DetectorError, TransformUnavailable, UnknownFrame

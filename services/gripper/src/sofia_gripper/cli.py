@@ -8,12 +8,12 @@ import threading
 from pathlib import Path
 from typing import Any
 
-from sofia_schemas.client import query
+from sofia_runtime.client import query
+from sofia_runtime.output import add_json_option, emit
+from sofia_runtime.service import StopFlag
+from sofia_runtime.zenoh_config import ZenohOptions, add_zenoh_args, zenoh_config
 from sofia_schemas.keys import ENCODING_JSON, Keys, add_robot_arg, default_robot
 from sofia_schemas.messages import GripperCommand, GripperResult
-from sofia_schemas.output import add_json_option, emit
-from sofia_schemas.service import StopFlag
-from sofia_schemas.zenoh_config import ZenohOptions, add_zenoh_args, zenoh_config
 
 from .config import GripperConfig, load_config
 

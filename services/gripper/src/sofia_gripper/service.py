@@ -23,10 +23,7 @@ from pathlib import Path
 from typing import Literal
 
 import zenoh
-from sofia_schemas.errors import PayloadError
-from sofia_schemas.keys import ENCODING_JSON, Keys
-from sofia_schemas.messages import GripperCommand, GripperState, ServiceStatus, now_ns
-from sofia_schemas.service import (
+from sofia_runtime.service import (
     StatusEndpoint,
     StopFlag,
     query_message,
@@ -35,7 +32,10 @@ from sofia_schemas.service import (
     run_worker,
     stop_child,
 )
-from sofia_schemas.zenoh_config import ZenohOptions, zenoh_config
+from sofia_runtime.zenoh_config import ZenohOptions, zenoh_config
+from sofia_schemas.errors import PayloadError
+from sofia_schemas.keys import ENCODING_JSON, Keys
+from sofia_schemas.messages import GripperCommand, GripperState, ServiceStatus, now_ns
 
 from .config import GripperConfig, save_config
 from .driver import Gripper

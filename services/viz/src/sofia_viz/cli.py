@@ -5,10 +5,10 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from sofia_runtime.output import add_json_option, emit
+from sofia_runtime.zenoh_config import ZenohOptions, add_zenoh_args
 from sofia_schemas import Board
 from sofia_schemas.keys import add_robot_arg, default_robot
-from sofia_schemas.output import add_json_option, emit
-from sofia_schemas.zenoh_config import ZenohOptions, add_zenoh_args
 
 LAYOUT = Path(__file__).with_name("data") / "layout.json"
 

@@ -30,6 +30,8 @@ import foxglove
 import zenoh
 from foxglove.channels import SceneUpdateChannel
 from foxglove.messages import SceneEntityDeletion, SceneEntityDeletionType, SceneUpdate
+from sofia_runtime.service import StatusEndpoint, StopFlag
+from sofia_runtime.zenoh_config import ZenohOptions, zenoh_config
 from sofia_schemas import Board
 from sofia_schemas.keys import Keys
 from sofia_schemas.messages import (
@@ -44,8 +46,6 @@ from sofia_schemas.ros2 import convert as cv
 from sofia_schemas.ros2.encoding import decode_flange
 from sofia_schemas.ros2.typesupport import encode
 from sofia_schemas.rosmsg import msgdef
-from sofia_schemas.service import StatusEndpoint, StopFlag
-from sofia_schemas.zenoh_config import ZenohOptions, zenoh_config
 
 from .errors import PortInUse
 from .scene import board_entity, calibration_entity, detection_entities, pick_entity

@@ -10,12 +10,12 @@ import threading
 from pathlib import Path
 
 import zenoh
+from sofia_schemas.keys import Keys, add_robot_arg, default_robot
+from sofia_schemas.messages import ServiceStatus
 
 from .client import QueryError, ask
 from .client import query as query_replies
 from .decode import describe
-from .keys import Keys, add_robot_arg, default_robot
-from .messages import ServiceStatus
 from .output import add_json_option, emit
 from .service import StopFlag
 from .zenoh_config import ZenohOptions, add_zenoh_args, zenoh_config

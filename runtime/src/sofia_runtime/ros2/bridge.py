@@ -33,14 +33,14 @@ from dataclasses import dataclass
 from typing import Any
 
 import zenoh
+from sofia_schemas.keys import ENCODING_CDR_POINTCLOUD2, ENCODING_CDR_TRANSFORM, Keys
+from sofia_schemas.messages import CalibrationResult, Detection, ErrorReply, GripperState, PickTarget
+from sofia_schemas.ros2 import convert as cv
+from sofia_schemas.ros2.typesupport import decode, encode
+from sofia_schemas.rosmsg import decode_flange_pose, encode_flange_pose
 
-from ..keys import ENCODING_CDR_POINTCLOUD2, ENCODING_CDR_TRANSFORM, Keys
-from ..messages import CalibrationResult, Detection, ErrorReply, GripperState, PickTarget
-from ..rosmsg import decode_flange_pose, encode_flange_pose
-from . import convert as cv
 from .rmw import STATIC_QOS, Attachment, Graph, Node, Qos, reply, sample_attachment
 from .tfchain import TfChain
-from .typesupport import decode, encode
 
 log = logging.getLogger("sofia.ros2")
 FORWARDED = b"sofia-ros2-forwarded"

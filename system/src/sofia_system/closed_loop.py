@@ -14,13 +14,14 @@ from pathlib import Path
 
 import numpy as np
 import zenoh
-from sofia_schemas import Keys, zenoh_config
-from sofia_schemas.client import QueryError, ask
-from sofia_schemas.launcher import Launcher, ServiceSpec
+from sofia_runtime import zenoh_config
+from sofia_runtime.client import QueryError, ask
+from sofia_schemas import Keys
 from sofia_schemas.messages import ArmCommand, ArmPhase, ArmResult, Detection
 from sofia_schemas.transforms import rotation_angle
 
 from .bus import Collector, wait_until
+from .launcher import Launcher, ServiceSpec
 from .steps import sofia
 from .summary import Summary, say
 from .wording import field_text, transform_text

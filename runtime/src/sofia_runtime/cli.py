@@ -18,7 +18,8 @@ import sys
 from importlib.metadata import PackageNotFoundError, entry_points, version
 from pathlib import Path
 
-from .messages import ALL_MESSAGES
+from sofia_schemas.messages import ALL_MESSAGES
+
 from .output import add_json_option, emit
 
 log = logging.getLogger("sofia")
@@ -40,7 +41,7 @@ class HelpFormatter(argparse.HelpFormatter):
 
 def sofia_version() -> str:
     try:
-        return version("sofia-schemas")
+        return version("sofia-runtime")
     except PackageNotFoundError:  # running from a source tree that is not installed
         return "unknown"
 

@@ -7,7 +7,7 @@ them, so the resident size only ratchets up. Two settings bound it:
 - :func:`bound_heap`: at most ``ARENAS`` arenas (``mallopt(M_ARENA_MAX)``, what ``MALLOC_ARENA_MAX``
   sets); call it before threads start (the ``sofia`` command does, first thing);
 - :func:`trim_heap`: hand free pages of every arena back to the system (``malloc_trim(0)``);
-  :class:`~sofia_schemas.service.StatusEndpoint` calls it once a second.
+  :class:`~sofia_runtime.service.StatusEndpoint` calls it once a second.
 
 On a C library other than glibc both do nothing.
 """

@@ -8,15 +8,15 @@ from pathlib import Path
 
 import numpy as np
 import zenoh
+from sofia_replay.mcap_io import read_truth
+from sofia_runtime.client import QueryError, ask, query
 from sofia_schemas import Keys
-from sofia_schemas.client import QueryError, ask, query
 from sofia_schemas.keys import TOPIC_BLOB, TOPIC_CAMERA_POINTS, TOPIC_FLANGE_POSE, TOPIC_POINTS
-from sofia_schemas.launcher import sofia_executable
 from sofia_schemas.messages import CalibrationResult, Detection, GripperCommand, GripperResult, PickTarget
 from sofia_schemas.transforms import rotation_angle
 
-from ..mcap_io import read_truth
 from .bus import Collector, wait_until
+from .launcher import sofia_executable
 from .summary import Summary, say
 from .wording import describe_detection, transform_text
 

@@ -18,14 +18,15 @@ from collections.abc import Iterator
 from pathlib import Path
 
 import zenoh
-from sofia_schemas import Keys, zenoh_config
+from sofia_runtime import zenoh_config
+from sofia_runtime.limits import ClipFilter
+from sofia_runtime.output import add_json_option, emit
+from sofia_schemas import Keys
 from sofia_schemas.keys import default_robot
-from sofia_schemas.launcher import Launcher, ServiceSpec
-from sofia_schemas.limits import ClipFilter
-from sofia_schemas.output import add_json_option, emit
 
 from . import steps
 from .bus import wait_until
+from .launcher import Launcher, ServiceSpec
 from .summary import Summary, say
 
 log = logging.getLogger("sofia.demo")
@@ -93,7 +94,7 @@ def launcher_log(path: Path) -> Iterator[None]:
 
 
 def make_recordings(recordings: Path, n_scenes: int, n_poses: int) -> tuple[Path, Path]:
-    from ..synth import write_calibration_session, write_scene_set
+    from sofia_replay.synth import write_calibration_session, write_scene_set
 
     recordings.mkdir(parents=True, exist_ok=True)
     scenes, calib = recordings / "scenes.mcap", recordings / "calibration.mcap"

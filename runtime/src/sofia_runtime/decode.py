@@ -5,8 +5,8 @@ from __future__ import annotations
 import json
 from typing import Any
 
-from . import pointcloud, rosmsg
-from .errors import PayloadError, PointCloudError
+from sofia_schemas import pointcloud, rosmsg
+from sofia_schemas.errors import PayloadError, PointCloudError
 
 
 def describe(payload: bytes, encoding: str = "") -> dict[str, Any]:

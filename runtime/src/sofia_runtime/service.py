@@ -20,12 +20,12 @@ from typing import Generic, TypeVar
 
 import zenoh
 from pydantic import BaseModel, ValidationError
+from sofia_schemas.errors import PayloadError
+from sofia_schemas.keys import ENCODING_JSON
+from sofia_schemas.messages import ErrorReply, ServiceStatus
 
-from .errors import PayloadError
-from .keys import ENCODING_JSON
 from .limits import MESSAGE_CHARS, ClipFilter, check_payload, clip, error_text
 from .memory import trim_heap
-from .messages import ErrorReply, ServiceStatus
 
 T = TypeVar("T")
 log = logging.getLogger(__name__)
@@ -33,7 +33,7 @@ log = logging.getLogger(__name__)
 
 def setup_logging(level: str = "INFO", log_file: str | Path | None = None) -> None:
     """Configure the root logger: ``time level name: message`` to stderr (and a file); every record
-    is clipped (:class:`~sofia_schemas.limits.ClipFilter`), so no payload floods a log."""
+    is clipped (:class:`~sofia_runtime.limits.ClipFilter`), so no payload floods a log."""
     handlers: list[logging.Handler] = [logging.StreamHandler()]
     if log_file:
         Path(log_file).parent.mkdir(parents=True, exist_ok=True)
@@ -112,7 +112,7 @@ def reply_json(query: zenoh.Query, message: BaseModel, key: str | None = None) -
 
 def reply_error(query: zenoh.Query, error: BaseException | str, key: str | None = None) -> None:
     """Reply with an :class:`ErrorReply` saying what was wrong (``reply_err``), then finalise.
-    The message is clipped (:func:`~sofia_schemas.limits.error_text`): it quotes at most the first
+    The message is clipped (:func:`~sofia_runtime.limits.error_text`): it quotes at most the first
     characters of an offending value."""
     name = type(error).__name__ if isinstance(error, BaseException) else "Error"
     reply = ErrorReply(error=name, message=error_text(error), key=key or str(query.key_expr))
@@ -139,7 +139,7 @@ def run_worker(name: str, target: Callable[[], None]) -> threading.Thread:
 
 def query_payload(query: zenoh.Query) -> bytes:
     """The payload of ``query`` (empty bytes when it has none); :class:`PayloadTooLarge` (a
-    ``ValueError``) beyond the limit of its key (:func:`~sofia_schemas.limits.payload_limit`)."""
+    ``ValueError``) beyond the limit of its key (:func:`~sofia_runtime.limits.payload_limit`)."""
     check_payload(str(query.key_expr), query.payload)
     return query.payload.to_bytes() if query.payload is not None else b""
 

@@ -5,7 +5,8 @@ from __future__ import annotations
 import argparse
 import os
 
-from ..keys import add_robot_arg, default_robot
+from sofia_schemas.keys import add_robot_arg, default_robot
+
 from ..output import add_json_option, emit
 from ..zenoh_config import ZenohOptions, add_zenoh_args
 
@@ -53,7 +54,7 @@ def _serve(args: argparse.Namespace) -> int:
 
 
 def _types(args: argparse.Namespace) -> int:
-    from .typesupport import dds_type_name, shipped_types, type_hash
+    from sofia_schemas.ros2.typesupport import dds_type_name, shipped_types, type_hash
 
     for name in shipped_types():
         dds, rihs = dds_type_name(name), type_hash(name)

@@ -10,9 +10,9 @@ import logging
 from dataclasses import dataclass
 
 import zenoh
+from sofia_schemas.keys import Keys
+from sofia_schemas.messages import ServiceStatus, now_ns
 
-from ..keys import Keys
-from ..messages import ServiceStatus, now_ns
 from ..service import StatusEndpoint, StopFlag
 from ..zenoh_config import ZenohOptions, zenoh_config
 from .bridge import Bridge, BridgeConfig

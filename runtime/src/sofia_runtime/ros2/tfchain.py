@@ -12,9 +12,8 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-
-from ..messages import FlangePose
-from ..transforms import make_transform
+from sofia_schemas.messages import FlangePose
+from sofia_schemas.transforms import make_transform
 
 MAX_DEPTH = 64
 

@@ -17,8 +17,7 @@ import os
 
 import zenoh
 from pydantic import ValidationError
-
-from .errors import PayloadError
+from sofia_schemas.errors import PayloadError
 
 ECHO_CHARS = 200  # characters of an offending value quoted in an error
 MESSAGE_CHARS = 2000  # characters of a whole error message or log line

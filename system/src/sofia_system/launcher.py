@@ -19,14 +19,13 @@ from pathlib import Path
 from typing import IO, Any
 
 import zenoh
-
-from .client import QueryError, ask
-from .keys import Keys, default_robot
-from .messages import ServiceStatus
-from .output import add_json_option, emit
-from .ros2.cli import enabled as ros2_enabled
-from .service import StopFlag
-from .zenoh_config import DEFAULT_ROUTER_LISTEN, ZenohOptions, add_zenoh_args, zenoh_config
+from sofia_runtime.client import QueryError, ask
+from sofia_runtime.output import add_json_option, emit
+from sofia_runtime.ros2.cli import enabled as ros2_enabled
+from sofia_runtime.service import StopFlag
+from sofia_runtime.zenoh_config import DEFAULT_ROUTER_LISTEN, ZenohOptions, add_zenoh_args, zenoh_config
+from sofia_schemas.keys import Keys, default_robot
+from sofia_schemas.messages import ServiceStatus
 
 log = logging.getLogger("sofia.up")
 GRACE_S = 8.0
@@ -39,7 +38,7 @@ def sofia_executable() -> list[str]:
     if exe.exists():
         return [str(exe)]
     found = shutil.which("sofia")
-    return [found] if found else [sys.executable, "-m", "sofia_schemas.cli"]
+    return [found] if found else [sys.executable, "-m", "sofia_runtime.cli"]
 
 
 @dataclass

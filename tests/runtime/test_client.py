@@ -1,4 +1,4 @@
-"""sofia_schemas.client.query: a query sent before its queryable is reachable is answered once."""
+"""sofia_runtime.client.query: a query sent before its queryable is reachable is answered once."""
 
 from __future__ import annotations
 
@@ -9,12 +9,12 @@ import uuid
 from pathlib import Path
 
 import zenoh
-from sofia_schemas import zenoh_config
-from sofia_schemas.client import query
+from sofia_runtime import zenoh_config
+from sofia_runtime.client import query
 
 QUERYABLE = """
 import sys, time, zenoh
-from sofia_schemas import zenoh_config
+from sofia_runtime import zenoh_config
 key, count_file = sys.argv[1], sys.argv[2]
 time.sleep(1.5)  # the querier starts first
 n = 0

@@ -7,7 +7,7 @@ import json
 from pathlib import Path
 
 import pytest
-from sofia_schemas.zenoh_config import (
+from sofia_runtime.zenoh_config import (
     ZenohOptions,
     add_zenoh_args,
     resolve,

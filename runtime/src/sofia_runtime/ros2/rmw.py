@@ -32,9 +32,8 @@ from typing import Any
 
 import zenoh
 import zenoh.ext
-
-from ..errors import PayloadError
-from .typesupport import dds_type_name, type_hash
+from sofia_schemas.errors import PayloadError
+from sofia_schemas.ros2.typesupport import dds_type_name, type_hash
 
 log = logging.getLogger("sofia.ros2")
 GID_SIZE = 16

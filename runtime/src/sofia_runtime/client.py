@@ -16,8 +16,7 @@ from typing import TypeVar
 
 import zenoh
 from pydantic import BaseModel
-
-from .messages import ErrorReply
+from sofia_schemas.messages import ErrorReply
 
 RETRY_S = 0.1
 M = TypeVar("M", bound=BaseModel)

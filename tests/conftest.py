@@ -1,6 +1,7 @@
-"""Shared fixtures: a unique robot id per test (isolates Zenoh traffic), real service processes
-started with the ``sofia`` command (stopped with SIGTERM, their logs kept), a Zenoh session of the
-test process, and :func:`query_json` for the JSON replies of a queryable."""
+"""Shared fixtures and helpers: a unique robot id per test (isolates Zenoh traffic), real service
+processes started with the ``sofia`` command (stopped with SIGTERM, their logs kept), a Zenoh session
+of the test process, queries (:func:`query_json`, :func:`first_reply` with :func:`reply_ok` /
+:func:`reply_err`) and ``collect(key_expr)``, a subscriber that records every sample it hears."""
 
 from __future__ import annotations
 
@@ -9,17 +10,24 @@ import os
 import signal
 import subprocess
 import sys
+import threading
 import time
 import uuid
 from collections.abc import Callable, Iterator
+from dataclasses import dataclass
 from pathlib import Path
+from typing import TypeVar
 
 import pytest
 import zenoh
+from pydantic import BaseModel
 from sofia_runtime import client, zenoh_config
+from sofia_runtime.zenoh_config import open_session
+from sofia_schemas.messages import ErrorReply
 
 REPO = Path(__file__).resolve().parents[1]
 SOFIA = str(Path(sys.executable).with_name("sofia"))
+M = TypeVar("M", bound=BaseModel)
 
 
 @pytest.fixture
@@ -38,6 +46,27 @@ def query_json(session: zenoh.Session, key: str, payload: str | bytes | None = N
     ok, err = replies[0].ok, replies[0].err
     body = ok.payload.to_bytes() if ok is not None else err.payload.to_bytes() if err is not None else b"{}"
     return ok is not None, json.loads(body)
+
+
+def first_reply(session: zenoh.Session, key: str, payload: str | bytes | None = None, timeout: float = 10.0,
+                encoding: str | None = None) -> zenoh.Reply:  # fmt: skip
+    """The one reply to a query on ``key`` (discovery included, see :func:`sofia_runtime.client.query`);
+    fails when there is none or more than one."""
+    replies = client.query(session, key, payload, timeout=timeout, encoding=encoding)
+    assert len(replies) == 1, f"{len(replies)} replies to {key} within {timeout} s (expected 1)"
+    return replies[0]
+
+
+def reply_ok(reply: zenoh.Reply, model: type[M]) -> M:
+    """An ok reply parsed as ``model``; fails with the error reply's text otherwise."""
+    assert reply.ok is not None, reply.err.payload.to_bytes() if reply.err is not None else None
+    return model.model_validate_json(reply.ok.payload.to_bytes())
+
+
+def reply_err(reply: zenoh.Reply) -> ErrorReply:
+    """An error reply as its :class:`ErrorReply`; fails on an ok reply."""
+    assert reply.err is not None, "expected an error reply"
+    return ErrorReply.model_validate_json(reply.err.payload.to_bytes())
 
 
 @pytest.fixture
@@ -149,3 +178,50 @@ def json_lines(text: str) -> list[dict[str, object]]:
         if line.startswith("{"):
             out.append(json.loads(line))
     return out
+
+
+@dataclass(frozen=True)
+class Received:
+    key: str
+    payload: bytes
+    encoding: str
+    t: float  # time.monotonic() at arrival
+
+
+class Collector:
+    def __init__(self) -> None:
+        self.samples: list[Received] = []
+        self._lock = threading.Lock()
+
+    def __call__(self, sample: zenoh.Sample) -> None:
+        r = Received(str(sample.key_expr), sample.payload.to_bytes(), str(sample.encoding), time.monotonic())
+        with self._lock:
+            self.samples.append(r)
+
+    def on(self, key: str) -> list[Received]:
+        with self._lock:
+            return [s for s in self.samples if s.key == key]
+
+    def wait_for(self, key: str, n: int, timeout: float = 30.0) -> list[Received]:
+        """Samples on ``key`` once there are ``n`` (or all there are after ``timeout``)."""
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline and len(self.on(key)) < n:
+            time.sleep(0.02)
+        return self.on(key)
+
+
+@pytest.fixture
+def collect() -> Iterator[Callable[[str], Collector]]:
+    """``collect(key_expr)`` subscribes (in this process) and returns the growing sample list."""
+    session = open_session()
+    subs = []
+
+    def start(key_expr: str) -> Collector:
+        c = Collector()
+        subs.append(session.declare_subscriber(key_expr, c))
+        return c
+
+    yield start
+    for s in subs:
+        s.undeclare()
+    session.close()

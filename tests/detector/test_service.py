@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 import zenoh
 from sofia_replay.synth import DEFAULT_T_FLANGE_CAM
+from sofia_runtime import client
 from sofia_schemas import pointcloud
 from sofia_schemas.keys import ENCODING_CDR_POINTCLOUD2, ENCODING_JSON, Keys
 from sofia_schemas.messages import Detection, ErrorReply, FlangePose, PickTarget, ServiceStatus
@@ -25,20 +26,9 @@ def _collect(session: zenoh.Session, key: str) -> tuple[queue.Queue[bytes], obje
     return q, sub
 
 
-def _get(session: zenoh.Session, key: str, payload: bytes | None = None, timeout: float = 10.0) -> list:  # type: ignore[type-arg]
-    """Replies of one query, retried until the queryable answers (discovery takes a moment)."""
-    deadline = time.monotonic() + timeout
-    while True:
-        kwargs = {"payload": payload} if payload is not None else {}
-        replies = list(session.get(key, timeout=5.0, **kwargs))
-        if replies or time.monotonic() > deadline:
-            return replies
-        time.sleep(0.2)
-
-
 def _wait_subscribed(session: zenoh.Session, keys: Keys) -> None:
     """Wait until the service answers its status query: its subscribers are declared by then."""
-    replies = _get(session, keys.status("detector"))
+    replies = client.query(session, keys.status("detector"))
     assert replies and replies[0].ok is not None
 
 
@@ -74,35 +64,35 @@ def test_detect_queryable(sofia_proc, robot_id: str, session, scenes) -> None:  
     keys = Keys(robot_id)
     proc = sofia_proc("detector", "serve")
     proc.wait_for_log("detector ready")
-    empty = _get(session, keys.detect)  # no cloud yet: an error that says so
+    empty = client.query(session, keys.detect)  # no cloud yet: an error that says so
     assert empty and empty[0].err is not None
     assert "no cloud received yet" in ErrorReply.model_validate_json(empty[0].err.payload.to_bytes()).message
     s = scenes["sphere"]
     cdr = bytes(pointcloud.encode_points(s.points_base, stamp_ns=STAMP_NS, frame_id="panda_link0"))
-    ok = _get(session, keys.detect, cdr)
+    ok = client.query(session, keys.detect, cdr)
     det = Detection.model_validate_json(ok[0].ok.payload.to_bytes())
     assert (
         det.stamp_ns == STAMP_NS
         and np.linalg.norm(np.array(det.objects[0].center) - s.objects[0].center) < 0.005
     )
     for garbage, needle in [(b"\x00\x01\x00\x00\x01", "truncated"), (b"{not cdr}", "not a CDR PointCloud2")]:
-        bad = _get(session, keys.detect, garbage)
+        bad = client.query(session, keys.detect, garbage)
         assert bad[0].err is not None
         err = ErrorReply.model_validate_json(bad[0].err.payload.to_bytes())
         assert needle in err.message.lower() or needle in err.message, err
-    again = _get(session, keys.detect, cdr)  # still serving after the garbage
+    again = client.query(session, keys.detect, cdr)  # still serving after the garbage
     assert Detection.model_validate_json(again[0].ok.payload.to_bytes()).stamp_ns == STAMP_NS
     # no payload: the detection of the latest cloud received on the bus (queried clouds are not)
-    assert _get(session, keys.detect)[0].err is not None
+    assert client.query(session, keys.detect)[0].err is not None
     pub = session.declare_publisher(keys.points, congestion_control=BLOCK)
     dets, _sub = _collect(session, keys.detections)
     _wait_subscribed(session, keys)
     pub.put(bytes(pointcloud.encode_points(s.points_base, stamp_ns=STAMP_NS + 5, frame_id="panda_link0")))
     assert Detection.model_validate_json(dets.get(timeout=15)).stamp_ns == STAMP_NS + 5
-    after = Detection.model_validate_json(_get(session, keys.detect)[0].ok.payload.to_bytes())
+    after = Detection.model_validate_json(client.query(session, keys.detect)[0].ok.payload.to_bytes())
     assert after.stamp_ns == STAMP_NS + 5
     status = ServiceStatus.model_validate_json(
-        _get(session, keys.status("detector"))[0].ok.payload.to_bytes()
+        client.query(session, keys.status("detector"))[0].ok.payload.to_bytes()
     )
     assert status.counters["query_errors"] == 4 and status.counters["queries"] == 7
     assert proc.popen.poll() is None
@@ -141,7 +131,7 @@ def test_camera_frame_cloud_with_flange_pose_and_transform_file(
     cam.put(bytes(pointcloud.encode_points(f.render.points_cam, stamp_ns=STAMP_NS + 10**9, frame_id="cam")))
     time.sleep(1.0)
     status = ServiceStatus.model_validate_json(
-        _get(session, keys.status("detector"))[0].ok.payload.to_bytes()
+        client.query(session, keys.status("detector"))[0].ok.payload.to_bytes()
     )
     assert status.counters["no_transform"] == 1 and "flange pose" in status.detail
     assert status.info["transform"] == f"file {tf}"
@@ -178,7 +168,7 @@ def test_burst_keeps_only_the_latest_cloud(sofia_proc, robot_id: str, session, s
     assert stamps == sorted(stamps)  # never an older cloud after a newer one
     time.sleep(0.5)
     status = ServiceStatus.model_validate_json(
-        _get(session, keys.status("detector"))[0].ok.payload.to_bytes()
+        client.query(session, keys.status("detector"))[0].ok.payload.to_bytes()
     )
     c = status.counters
     assert c["received"] == n and c["processed"] == len(stamps)

@@ -10,19 +10,22 @@ import time
 from pathlib import Path
 
 import numpy as np
+from sofia_runtime import client
 from sofia_schemas import pointcloud
 from sofia_schemas.keys import ENCODING_CDR_POINTCLOUD2, Keys
 from sofia_schemas.messages import Detection, FlangePose, ServiceStatus
 from sofia_schemas.rosmsg import encode_flange_pose
 
 from ..conftest import SOFIA
-from .test_service import BLOCK, STAMP_NS, _collect, _get, _wait_subscribed
+from .test_service import BLOCK, STAMP_NS, _collect, _wait_subscribed
 
 POSE_WAIT_S = 20.0  # long enough that a worker blocked by the waiting cloud could not hide it
 
 
 def _status(session, keys: Keys) -> ServiceStatus:  # type: ignore[no-untyped-def]
-    return ServiceStatus.model_validate_json(_get(session, keys.status("detector"))[0].ok.payload.to_bytes())
+    return ServiceStatus.model_validate_json(
+        client.query(session, keys.status("detector"))[0].ok.payload.to_bytes()
+    )
 
 
 def test_queries_are_served_while_a_camera_cloud_waits_for_its_pose(
@@ -50,7 +53,7 @@ def test_queries_are_served_while_a_camera_cloud_waits_for_its_pose(
         scenes["sphere"].points_base, stamp_ns=STAMP_NS + 7, frame_id="panda_link0"
     )
     t0 = time.monotonic()
-    reply = _get(session, keys.detect, bytes(base))
+    reply = client.query(session, keys.detect, bytes(base))
     waited_s = time.monotonic() - t0
     assert reply[0].ok is not None and Detection.model_validate_json(
         reply[0].ok.payload.to_bytes()

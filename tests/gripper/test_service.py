@@ -13,29 +13,17 @@ from collections.abc import Callable
 import pytest
 import zenoh
 from sofia_schemas.keys import ENCODING_JSON, Keys
-from sofia_schemas.messages import ErrorReply, GripperResult, GripperState, ServiceStatus
+from sofia_schemas.messages import GripperResult, GripperState, ServiceStatus
 
-from ..conftest import SOFIA, Proc
+from ..conftest import SOFIA, Proc, first_reply, reply_err, reply_ok
 
 
-def query(session: zenoh.Session, key: str, payload: bytes, timeout: float = 10.0) -> zenoh.Reply:
-    deadline = time.monotonic() + 10.0
-    while True:  # the first queries may go out before discovery completes
-        replies = list(session.get(key, payload=payload, encoding=ENCODING_JSON, timeout=timeout))
-        if replies or time.monotonic() > deadline:
-            assert len(replies) == 1, replies
-            return replies[0]
-        time.sleep(0.2)
+def query(session: zenoh.Session, key: str, payload: bytes) -> zenoh.Reply:
+    return first_reply(session, key, payload, encoding=ENCODING_JSON)
 
 
 def ok(reply: zenoh.Reply) -> GripperResult:
-    assert reply.ok is not None, reply.err.payload.to_bytes() if reply.err else None
-    return GripperResult.model_validate_json(reply.ok.payload.to_bytes())
-
-
-def err(reply: zenoh.Reply) -> ErrorReply:
-    assert reply.err is not None, "expected an error reply"
-    return ErrorReply.model_validate_json(reply.err.payload.to_bytes())
+    return reply_ok(reply, GripperResult)
 
 
 @pytest.fixture
@@ -66,11 +54,11 @@ def test_service_over_zenoh(service: Proc, session: zenoh.Session, robot_id: str
     assert len(recent) >= 100, f"{len(recent)} states in 2 s"  # >= 50 Hz
     assert all(s.connected and s.grasped for s in recent)
 
-    e = err(query(session, keys.gripper_command, b'{"action": "move", "opening_mm": 300}'))
+    e = reply_err(query(session, keys.gripper_command, b'{"action": "move", "opening_mm": 300}'))
     assert e.error == "OutOfRange" and "300" in e.message
-    e = err(query(session, keys.gripper_command, b"not json"))
+    e = reply_err(query(session, keys.gripper_command, b"not json"))
     assert e.error == "PayloadError" and "not json" in e.message
-    e = err(query(session, keys.gripper_command, b""))
+    e = reply_err(query(session, keys.gripper_command, b""))
     assert e.error == "PayloadError" and "no payload" in e.message
     assert ok(query(session, keys.gripper_command, b'{"action": "release"}')).ok
 
@@ -115,7 +103,7 @@ def test_service_without_hardware_keeps_serving_clear_errors(
     proc = sofia_proc("gripper", "serve", "--port", "/nonexistent/ttyUSB9", "--baud", "57600")
     proc.wait_for_log("gripper service ready", timeout=30)
     keys = Keys(robot_id)
-    e = err(query(session, keys.gripper_command, b'{"action": "open"}'))
+    e = reply_err(query(session, keys.gripper_command, b'{"action": "open"}'))
     assert e.error == "NotReady" and "/nonexistent/ttyUSB9" in e.message
     state = ok(query(session, keys.gripper_command, b'{"action": "state"}')).state
     assert state and not state.connected and state.status == "disconnected" and state.position_ticks is None

@@ -16,17 +16,9 @@ from sofia_schemas.ros2 import convert as cv
 from sofia_schemas.ros2.typesupport import encode
 from sofia_schemas.transforms import matrix_to_quat_xyzw
 
+from ..conftest import first_reply
+
 STAMP_NS = 1_700_000_900_000_000_000
-
-
-def _query(session: zenoh.Session, key: str, payload: bytes) -> zenoh.Reply:
-    deadline = time.monotonic() + 20
-    while True:
-        replies = list(session.get(key, payload=payload, timeout=10.0))
-        if replies or time.monotonic() > deadline:
-            assert replies, f"no reply on {key}"
-            return replies[0]
-        time.sleep(0.2)
 
 
 def test_frames_decide_and_encodings_are_checked(sofia_proc, robot_id: str, flange_cam_file: Path) -> None:  # type: ignore[no-untyped-def]
@@ -43,7 +35,7 @@ def test_frames_decide_and_encodings_are_checked(sofia_proc, robot_id: str, flan
         _sub = session.declare_subscriber(
             keys.detections, lambda s: dets.append(Detection.model_validate_json(s.payload.to_bytes()))
         )
-        _query(session, keys.status("detector"), b"")  # subscribed by now
+        first_reply(session, keys.status("detector"), b"", timeout=20.0)  # subscribed by now
         # the flange pose as a PoseStamped (converted: the type is read from the encoding)
         T = frame.T_base_flange
         pose = cv.new_pose_stamped(STAMP_NS, "panda_link0", T[:3, 3], matrix_to_quat_xyzw(T[:3, :3]))
@@ -54,7 +46,7 @@ def test_frames_decide_and_encodings_are_checked(sofia_proc, robot_id: str, flan
         cam_cdr = bytes(pointcloud.encode_points(frame.render.points_cam, stamp_ns=STAMP_NS,
                                                  frame_id="camera_color_optical_frame"))  # fmt: skip
         # a camera-frame cloud sent to the detect queryable is mapped by its frame
-        reply = _query(session, keys.detect, cam_cdr)
+        reply = first_reply(session, keys.detect, cam_cdr, timeout=20.0)
         assert reply.ok is not None, reply.err.payload.to_bytes() if reply.err else None
         det = Detection.model_validate_json(reply.ok.payload.to_bytes())
         assert det.status == "ok" and np.linalg.norm(np.array(det.objects[0].center) - truth) < 0.005
@@ -67,7 +59,7 @@ def test_frames_decide_and_encodings_are_checked(sofia_proc, robot_id: str, flan
         assert dets and np.linalg.norm(np.array(dets[0].objects[0].center) - truth) < 0.005
         # a cloud in an unknown frame is refused, naming the frame
         odd = bytes(pointcloud.encode_points(frame.points_base, stamp_ns=STAMP_NS, frame_id="mystery_link"))
-        reply = _query(session, keys.detect, odd)
+        reply = first_reply(session, keys.detect, odd, timeout=20.0)
         assert reply.err is not None
         err = ErrorReply.model_validate_json(reply.err.payload.to_bytes())
         assert err.error == "UnknownFrame" and "'mystery_link'" in err.message
@@ -76,7 +68,7 @@ def test_frames_decide_and_encodings_are_checked(sofia_proc, robot_id: str, flan
                     encoding="application/cdr;geometry_msgs/msg/PointStamped")  # fmt: skip
         time.sleep(0.5)
         status = ServiceStatus.model_validate_json(
-            _query(session, keys.status("detector"), b"").ok.payload.to_bytes()
+            first_reply(session, keys.status("detector"), b"", timeout=20.0).ok.payload.to_bytes()
         )
         assert "geometry_msgs/msg/PointStamped" in status.detail
     assert proc.popen.poll() is None

@@ -4,6 +4,14 @@ The board's white fields are in every image: their observed colour is the refere
 object's colour is the median over its upper faces (lit like the board), scaled channel by
 channel so that the board's white looks like ``white_reference``, then named after the nearest
 palette colour in shading-invariant features (chromaticity and log brightness).
+
+Shading changes brightness only, and white, grey and black differ by brightness only. A face
+tilted by theta from the board receives less light: under diffuse light from above (a lab's
+ceiling, the sky) its irradiance is ``(1 + cos theta) / 2`` of the board's (the share of the
+upper hemisphere it sees), so a white cone's flanks (theta ~ 65 degrees) look 30 % darker than
+the board's white. :func:`lit_share` measures that factor from the faces' normals, and the
+colour of each of the object's pixels is divided by its face's factor, when the colour named
+without it could be a shaded brighter one (grey, black).
 """
 
 from __future__ import annotations
@@ -29,6 +37,8 @@ DEFAULT_PALETTE: tuple[tuple[str, tuple[int, int, int]], ...] = (
 )
 WHITE_REFERENCE = (235.0, 235.0, 230.0)  # sRGB of the board's white fields in the palette's light
 MIN_WHITE_PIXELS = 20
+SAME_HUE = 0.1  # chromaticity distance of palette colours that differ by brightness alone
+NORMAL_STEP = 2  # pixels between the points whose differences give a face's normal
 
 
 def board_white(
@@ -64,6 +74,46 @@ def _fields(board: Board) -> tuple[np.ndarray, np.ndarray]:
     bool, once per board geometry."""
     allowed = np.array([[board.is_allowed(i, j) for j in range(board.cols)] for i in range(board.rows)])
     return board.field_centers_board(), allowed
+
+
+def lit_share(window: np.ndarray, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
+    """(n,) light the faces at the pixels (rows, cols) (n,) receive relative to the board,
+    ``(1 + |n_z|) / 2`` (diffuse light from above); NaN where no normal is measured.
+
+    window: (3, h, w) float32 board-frame coordinates (z up), metres, NaN where depth is missing.
+    The normal of a pixel is the cross product of the differences between its neighbours
+    :data:`NORMAL_STEP` pixels away along the rows and along the columns. Pixels where the two
+    halves of a difference disagree (a depth step, a tip between them) measure no face.
+    """
+    _, h, w = window.shape
+    k = NORMAL_STEP
+    if h <= 2 * k or w <= 2 * k:
+        return np.full(rows.size, np.nan)
+    at = np.clip(rows, k, h - 1 - k) * w + np.clip(cols, k, w - 1 - k)
+    p = window.reshape(3, -1)[:, at[None, :] + np.array([[0], [k], [-k], [k * w], [-k * w]])]  # (3, 5, n)
+    fwd, back = p[:, 1::2] - p[:, :1], p[:, :1] - p[:, 2::2]  # (3, 2, n) along the columns and the rows
+    f2, b2 = np.einsum("kan,kan->an", fwd, fwd), np.einsum("kan,kan->an", back, back)
+    d = fwd - back
+    with np.errstate(invalid="ignore"):
+        ok = np.all(np.einsum("kan,kan->an", d, d) < 0.25 * np.maximum(f2, b2), axis=0)
+    (ux, vx), (uy, vy), (uz, vz) = fwd + back  # each (2, n): the differences along columns, rows
+    nx, ny, nz = uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx
+    norm = np.sqrt(nx * nx + ny * ny + nz * nz)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        lit = (1.0 + np.abs(nz) / norm) / 2.0
+    return np.where(ok & (norm > 0), lit, np.nan)
+
+
+@lru_cache(maxsize=16)
+def shaded_like_another(name: str, palette: tuple[tuple[str, tuple[int, int, int]], ...]) -> bool:
+    """True when shading could have turned another colour of ``palette`` into ``name``: one of
+    the same chromaticity (within :data:`SAME_HUE`) and brighter (grey, black: a shaded white)."""
+    feats = {n: chroma(np.array(p, dtype=np.float64)) for n, p in palette}
+    mine = feats[name]
+    return any(
+        n != name and f[3] > mine[3] and float(colour_distance(f[:3], mine[:3])) < SAME_HUE
+        for n, f in feats.items()
+    )
 
 
 def name_colour(

@@ -11,7 +11,7 @@ from sofia_schemas.messages import DetectedObject, Detection
 from sofia_schemas.transforms import invert
 
 from .board_fit import BoardFit, fit_board
-from .colour import board_white, name_colour
+from .colour import board_white, lit_share, name_colour, shaded_like_another
 from .depth_clean import pixel_spacing
 from .errors import BadCloud
 from .footprint import ObjectEstimate, estimate_object
@@ -119,8 +119,16 @@ def _colour(
     upper = obj.b[2] >= 0.8 * est.height
     sel = np.flatnonzero(upper) if np.count_nonzero(upper) >= 3 else np.arange(obj.rows.size)
     sel = sel[:: max(1, sel.size // 500)]
-    pix = obj.rgb[obj.rows[sel], obj.cols[sel]]
-    return name_colour(median(pix.reshape(-1, 3).astype(np.float64)), white, params.palette)
+    rows, cols = obj.rows[sel], obj.cols[sel]
+    pix = obj.rgb[rows, cols].reshape(-1, 3).astype(np.float64)
+    named = name_colour(median(pix), white, params.palette)
+    if obj.window is None or not shaded_like_another(named[0], params.palette):
+        return named
+    lit = lit_share(obj.window, rows, cols)
+    seen = np.isfinite(lit)  # each face's shading undone where its normal is measured
+    if np.count_nonzero(seen) < 3:
+        return named
+    return name_colour(median(pix[seen] / lit[seen, None]), white, params.palette)
 
 
 def detect(

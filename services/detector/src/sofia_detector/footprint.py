@@ -21,6 +21,7 @@ from .rim import round_footprint
 from .segment import ObjectPoints
 
 FIT_POINTS = 3000  # points used by the fits (every k-th of a large object)
+FLAT_K, FLAT_MIN = 3.0, 0.001  # a top whose heights spread more (noise units + metres) is no flat face
 
 
 @dataclass(frozen=True)
@@ -94,6 +95,11 @@ def fit_cone(b: np.ndarray, rect: Rect, noise: float) -> float | None:
     return float(a)
 
 
+def _spread(h: np.ndarray) -> float:
+    """Robust standard deviation (1.4826 median absolute deviation) of (n,) heights, metres."""
+    return float(1.4826 * median(np.abs(h - median(h))))
+
+
 def _solid(obj: ObjectPoints, subset: np.ndarray) -> np.ndarray:
     """``subset`` ((n,) bool over the object's points) without its specks on the pixel grid: the
     pieces smaller than 10 % of the largest (and than 10 pixels), which are mixed pixels that
@@ -118,7 +124,9 @@ def estimate_object(
 
     obj: the object's points, board frame, metres (z = height above the board). noise: depth noise
     standard deviation at the board, metres. curvature: the top is a cap when ``d < -curvature``
-    (1/m) and d is significant (t < -4). The fit uses the top points inside the ellipse inscribed
+    (1/m) and d is significant (t < -4), or the top is no flat face either (its heights spread
+    beyond the noise): then the cap's apex (or the highest points) gives the height and the
+    footprint of the top's band the centre. The fit uses the top points inside the ellipse inscribed
     in 70 % of the footprint rectangle, so the visible sides of a flat-topped object do not bend
     it. The footprint of a flat top is the rectangle of the points within 3 sigma of the top
     height: the top and the upper edge of the visible sides, which project onto the footprint,
@@ -141,20 +149,22 @@ def estimate_object(
     top = b[:, inner]
     mean_top = top[:2].mean(axis=1, dtype=np.float64) if top.shape[1] else R @ mid
     fit = fit_top(top[0] - mean_top[0], top[1] - mean_top[1], top[2])
-    curved = False
+    curved, tip = False, None
     yaw, whole = rect.yaw, rect
     cone = fit_cone(b, rect, noise)
+    # a flat top's points lie within the depth noise of its height; a tip's spread over the band
+    flat = top.shape[1] < 3 or _spread(top[2]) < FLAT_K * noise + FLAT_MIN
     if cone is not None:  # a cone: its apex is the height, its base the full footprint
         curved, height, center_xy, size = True, cone, rect.center, rect.size
-    elif fit is not None and fit[0][3] < -curvature and fit[0][3] < -4 * fit[1]:
+    elif fit is not None and fit[0][3] < -curvature and (fit[0][3] < -4 * fit[1] or not flat):
         coef = fit[0]
         apex = mean_top - coef[1:3] / (2 * coef[3])
         apex_uv = R.T @ apex
         if np.all((apex_uv > rect.lo) & (apex_uv < rect.hi)):
-            curved = True
-            center_xy = apex
-            height = float(coef[0] - (coef[1] ** 2 + coef[2] ** 2) / (4 * coef[3]))
-            size = 2 * np.maximum(apex_uv - rect.lo, rect.hi - apex_uv)
+            tip = float(coef[0] - (coef[1] ** 2 + coef[2] ** 2) / (4 * coef[3]))
+            if coef[3] < -4 * fit[1]:  # else a cap too sparse to place its apex: its height only
+                curved, height = True, tip
+                center_xy, size = apex, 2 * np.maximum(apex_uv - rect.lo, rect.hi - apex_uv)
     if not curved:
         height = float(median(top[2])) if top.shape[1] else h_hi
         face = _solid(obj, b_all[2] > height - max(3 * noise, 0.004))
@@ -167,6 +177,8 @@ def estimate_object(
         circle = round_footprint(obj, face, height, noise, rect, whole)
         if circle is not None:  # a round top: its centre even where part of it is out of view
             center_xy, size = circle[0], np.full(2, 2 * circle[1])
+        if not flat:  # a tip too sparse to fit: the cap's apex, else the highest points
+            height = max(tip, h_hi) if tip is not None else h_hi
     if size[0] < size[1]:
         size = size[::-1]
         yaw += np.pi / 2

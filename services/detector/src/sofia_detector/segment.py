@@ -134,6 +134,8 @@ def organized_objects(
             continue
         counts = np.bincount(hits)
         pieces = np.flatnonzero(counts >= max(2.0, 0.1 * counts.max()))
+        if pieces.size == 0:
+            continue  # no piece holds two seed hits: specks, no object
         obj = np.isin(wl, pieces) if pieces.size > 1 else wl == pieces[0]
         if n_pieces > pieces.size:
             obj = _with_parts_on_top(wl, n_pieces, b, obj, pieces)

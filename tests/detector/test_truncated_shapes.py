@@ -116,21 +116,3 @@ def test_a_top_with_board_seen_on_its_left_is_not_cut() -> None:
     cloud = _scene(lambda du, dv: np.where((np.abs(du) <= a) & (np.abs(dv) <= a), 0.05, 0.0), unseen=unseen)
     o = _one(cloud)
     assert o.truncated == () and o.confidence > 0.9
-
-
-def test_missing_depth_of_a_dark_tops_colour_is_the_top() -> None:
-    """A black box whose top's left third returns no depth (the colour camera sees it) keeps its
-    centre; the board (white) around it has another colour."""
-    a = 0.03
-
-    def height(du: np.ndarray, dv: np.ndarray) -> np.ndarray:
-        return np.where((np.abs(du) <= a) & (np.abs(dv) <= a), 0.04, 0.0)
-
-    full = _scene(height)
-    rgb = np.where(full[..., 2:] > 0.02, np.array([25, 25, 28]), np.array([235, 235, 230])).astype(np.uint8)
-    holed = _scene(height, hole=(0.0, -0.07, 0.056))  # the top is seen from dv = -23 mm on
-    before = detect(holed, BOARD).objects[0]  # without colours: the seen part
-    assert np.hypot(*(np.array(before.center[:2]) - TRUE_XY)) > 0.003
-    o = detect(holed, BOARD, rgb=rgb).objects[0]
-    assert np.hypot(*(np.array(o.center[:2]) - TRUE_XY)) < 0.0015
-    assert abs(o.extents[0] - 2 * a) < 0.003 and abs(o.extents[1] - 2 * a) < 0.003

@@ -182,7 +182,7 @@ def detect(
     for obj in found:
         if obj.b.shape[1] < params.min_points:
             continue
-        est = estimate_object(obj, fit.plane.rms, params.curvature, params.colour_tol)
+        est = estimate_object(obj, fit.plane.rms, params.curvature)
         if est.size[1] < params.min_width or est.height < params.min_object_height:
             continue  # a sliver of mixed pixels, or below the height floor
         if board.field_of_board_xy(est.center_xy[None, :])[0, 0] < 0:

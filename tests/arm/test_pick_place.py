@@ -63,6 +63,8 @@ def test_pick_and_place_in_the_simulated_cell(
         sofia_proc("gripper", "serve", "--emulate", "--object-width", f"{width_mm:.1f}"),
     ]
     procs[0].wait_for_log("connected to the robot", 120)
+    procs[1].wait_for_log("camera ready", 120)  # the pick target needs clouds
+    procs[2].wait_for_log("detector ready", 120)
     keys = Keys(robot_id)
     place = (0.45, -0.25, 0.25)
     # about 60 s of the simulator's clock, which runs at 0.3-0.9 x wall time depending on the host's load

@@ -66,10 +66,7 @@ class CloudPipeline:
     def warm_up(self) -> None:
         """Compile (or load from numba's cache) the registration and the cloud writer on a tiny frame,
         so that the first real frame does not wait for it."""
-        tiny = Intrinsics(8, 6, 6.0, 6.0, 3.5, 2.5)
-        z_m = self.registration.register_arrays(np.full((6, 8), 500, np.uint16), 1e-3, tiny, tiny, np.eye(4))
-        CloudEncoder(self.frame_id).encode(z_m, np.zeros((6, 8, 4), np.uint8), tiny, 0)
-        self.registration = DepthRegistration()
+        warm_kernels(self.frame_id)
 
     def stamp(self, pair: FramePair, source: FrameSource) -> tuple[int, int | None]:
         """Bus stamps of the depth frame and of the colour frame."""
@@ -107,3 +104,12 @@ class CloudPipeline:
                 "depth_offset_m": correction.depth_offset_m, "correction_source": source_name,
             })  # fmt: skip
         return Output(cloud, encode_camera_info(intr, stamp_ns, self.frame_id), meta, build_ms)
+
+
+def warm_kernels(frame_id: str = "camera_color_optical_frame") -> None:
+    """Compile the registration and the cloud writer on a tiny frame, or load them from numba's
+    cache (``scripts/install.sh`` runs this once, so a fresh install's first camera start does not
+    spend seconds compiling)."""
+    tiny = Intrinsics(8, 6, 6.0, 6.0, 3.5, 2.5)
+    z_m = DepthRegistration().register_arrays(np.full((6, 8), 500, np.uint16), 1e-3, tiny, tiny, np.eye(4))
+    CloudEncoder(frame_id).encode(z_m, np.zeros((6, 8, 4), np.uint8), tiny, 0)

@@ -23,4 +23,6 @@ RUN groupadd --system plugdev 2>/dev/null || true; \
     useradd --create-home --uid 10001 --user-group --groups plugdev sofia
 USER sofia
 WORKDIR /home/sofia
+# the registration and cloud writer compiled into numba's cache (~/.cache/numba): the camera starts at once
+RUN python -c "from sofia_camera.pipeline import warm_kernels; warm_kernels()"
 CMD ["sofia", "camera", "serve"]

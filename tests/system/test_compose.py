@@ -140,6 +140,19 @@ class Image:
         return pkgs
 
 
+def _commands(run: str) -> list[list[str]]:
+    """The words of each command of a shell line (split at ``&&``, ``||`` and ``;`` outside quotes)."""
+    lexer = shlex.shlex(run, posix=True, punctuation_chars=True)
+    lexer.whitespace_split = True
+    commands: list[list[str]] = [[]]
+    for token in lexer:
+        if token in ("&&", "||", ";"):
+            commands.append([])
+        else:
+            commands[-1].append(token)
+    return [c for c in commands if c]
+
+
 def parse_dockerfile(path: Path) -> Image:
     image, workdir = Image(path), "/"
     text = re.sub(
@@ -165,8 +178,7 @@ def parse_dockerfile(path: Path) -> Image:
             image.cmd = json.loads(rest)
         elif op == "RUN":
             image.runs.append(rest)
-            for segment in re.split(r"&&|;", rest):
-                words = shlex.split(segment)
+            for words in _commands(rest):
                 if "pip" in words[:3] and "install" in words:
                     args = words[words.index("install") + 1 :]
                     with_value = {"-c", "-r", "--constraint", "--requirement"}

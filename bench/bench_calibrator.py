@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import argparse
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -134,8 +135,12 @@ def vectorised_objective(x: np.ndarray, p_cam: np.ndarray, T_base_flange: np.nda
 
 
 def baseline(
-    p_cam: np.ndarray, T_base_flange: np.ndarray, x0: np.ndarray, tight: bool = False, objective=lab_objective
-) -> tuple[np.ndarray, float]:  # type: ignore[no-untyped-def]
+    p_cam: np.ndarray,
+    T_base_flange: np.ndarray,
+    x0: np.ndarray,
+    tight: bool = False,
+    objective: Callable[..., float] = lab_objective,
+) -> tuple[np.ndarray, float]:
     """The lab's approach: Nelder-Mead (scipy fmin) on the pairwise sum, default tolerances or
     ``tight`` ones (xtol 1e-6, ftol 1e-9: run to convergence). Returns (T, seconds)."""
     opts = {"xtol": 1e-6, "ftol": 1e-9, "maxiter": 20000, "maxfun": 40000} if tight else {}

@@ -30,6 +30,7 @@ from subprocess import PIPE
 from typing import Any
 
 import jsonschema
+import numpy as np
 import pytest
 import yaml
 import zenoh
@@ -486,6 +487,90 @@ def test_mounts_state_volume_board_and_recordings() -> None:
     replay = services()["replay"]
     assert "./recordings:/recordings:ro" in map(interpolate, replay["volumes"])
     assert argv(replay["command"])[3].startswith("/recordings/") and "--loop" in argv(replay["command"])
+
+
+
+CLOUD_SERVICES = ("detector", "replay", "camera", "ros2", "viz")  # publish or subscribe to clouds
+SIZE_UNITS = {"k": 1 << 10, "m": 1 << 20, "g": 1 << 30}
+
+
+def test_cloud_services_share_the_routers_dev_shm_sized_for_the_pools() -> None:
+    """Zenoh shared memory in compose: the services that move clouds join the router's IPC
+    namespace (and /dev/shm), whose size holds the camera's and the replayer's pools at 1280x720
+    plus each session's own transport pool; both router configs enable it; on by default."""
+    router = services()[ROUTER]
+    assert router["ipc"] == "shareable"
+    for name in CLOUD_SERVICES:
+        assert services()[name]["ipc"] == f"service:{ROUTER}", f"{name} has its own /dev/shm"
+    size = str(router["shm_size"]).lower()
+    shm_bytes = int(size[:-1]) * SIZE_UNITS[size[-1]] if size[-1] in SIZE_UNITS else int(size)
+    from sofia_camera.shm import SHM_RESERVE
+    from sofia_replay.preload import ShmBuffers
+    from sofia_schemas import pointcloud
+
+    cloud = len(pointcloud.encode_points(np.zeros((720, 1280, 3), np.float32), stamp_ns=0,
+                                         frame_id="camera", rgb=np.zeros((720, 1280, 3), np.uint8)))  # fmt: skip
+    pools = 2 * ShmBuffers.POOL_MESSAGES * cloud + SHM_RESERVE * len(SOFIA_SERVICES)
+    assert shm_bytes >= pools, f"shm_size {size} < {pools / 1e6:.0f} MB of pools"
+    for config in ("router.json5", "router-secure.json5"):
+        assert router_config(REPO / "docker/zenoh" / config)["transport"]["shared_memory"]["enabled"] is True
+    env = {k: interpolate(str(v)) for k, v in services()["detector"]["environment"].items()}
+    assert env["SOFIA_ZENOH_SHM"] == "on"
+    assert json.loads(str(zenoh_config(env=env)))["transport"]["shared_memory"]["enabled"] is True
+    off = json.loads(str(zenoh_config(env={**env, "SOFIA_ZENOH_SHM": "off"})))
+    assert off["transport"]["shared_memory"]["enabled"] is False
+
+
+@pytest.mark.parametrize("shm", ["on", "off"])
+def test_clouds_cross_the_router_by_shared_memory_as_in_compose(
+    sofia_proc: Callable[..., Any], robot_id: str, tmp_path: Path, shm: str
+) -> None:
+    """The compose wiring without Docker: a router, the replay service as its client by TCP with the
+    compose environment, and a subscriber that is another client of it: the clouds reach the
+    subscriber as shared-memory buffers through the router, byte for byte; with
+    ``SOFIA_ZENOH_SHM=off`` (the compose switch) as bytes."""
+    from sofia_replay.mcap_io import McapWriter
+    from sofia_schemas import pointcloud
+    from sofia_schemas.keys import TOPIC_POINTS
+
+    rng = np.random.default_rng(3)
+    rec, written = tmp_path / "scenes.mcap", []
+    with McapWriter(rec) as w:
+        for i in range(4):
+            cloud = bytes(pointcloud.encode_points(rng.normal(size=(96, 128, 3)).astype(np.float32),
+                                                   stamp_ns=i + 1, frame_id="panda_link0"))  # fmt: skip
+            w.write_cloud(TOPIC_POINTS, cloud, i + 1)
+            written.append(cloud)
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    sofia_proc("router", "--listen", f"tcp/127.0.0.1:{port}").wait_for_log("router ready")
+    service = services()["replay"]
+    env = {k: interpolate(str(v)) for k, v in service["environment"].items()}
+    env.update(SOFIA_ROBOT=robot_id, SOFIA_ZENOH_CONNECT=f"tcp/127.0.0.1:{port}")  # host "zenoh" here
+    if shm == "off":
+        env["SOFIA_ZENOH_SHM"] = "off"
+    via_shm: list[bool] = []
+    payloads: list[bytes] = []
+
+    def on_cloud(sample: zenoh.Sample) -> None:
+        via_shm.append(sample.payload.as_shm() is not None)
+        payloads.append(sample.payload.to_bytes())
+
+    with zenoh.open(zenoh_config(env={**env, "SOFIA_ZENOH_SHM": "on"})) as session:
+        session.declare_subscriber(Keys(robot_id).points, on_cloud)
+        command = [str(rec) if a.startswith("/recordings/") else a for a in argv(service["command"])[1:]]
+        command.remove("--loop")
+        replay = sofia_proc(*command, "--topic", TOPIC_POINTS, "--wait-subscribers", "20", env=env)
+        assert replay.popen.wait(60) == 0, replay.log()
+        deadline = time.monotonic() + 10
+        while len(payloads) < len(written) and time.monotonic() < deadline:
+            time.sleep(0.02)
+    assert payloads == written
+    if shm == "off":
+        assert not any(via_shm)
+    else:  # from the first cloud on (a pool whose 4 buffers are all still held falls back to bytes)
+        assert via_shm[0] and sum(via_shm) >= len(written) - 1, via_shm
 
 
 # --- the images --------------------------------------------------------------------------------------

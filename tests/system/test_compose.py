@@ -489,7 +489,6 @@ def test_mounts_state_volume_board_and_recordings() -> None:
     assert argv(replay["command"])[3].startswith("/recordings/") and "--loop" in argv(replay["command"])
 
 
-
 CLOUD_SERVICES = ("detector", "replay", "camera", "ros2", "viz")  # publish or subscribe to clouds
 SIZE_UNITS = {"k": 1 << 10, "m": 1 << 20, "g": 1 << 30}
 

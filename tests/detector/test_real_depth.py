@@ -114,6 +114,22 @@ def test_objects_cut_by_the_image_edge_say_so(real: dict[str, RealFrame]) -> Non
     assert obj.confidence < 0.5  # type: ignore[attr-defined]
 
 
+def test_a_tall_object_whose_top_the_image_edge_cuts_is_reported_not_dropped() -> None:
+    """A bottle at the image's top border shows its side and a sliver of its top: the sliver is no
+    flying-pixel sheet (the object's whole footprint is wide), so the bottle is reported from what is
+    seen of it, truncated and unconfident (it was dropped as a sliver before)."""
+    from sofia_replay.synth.realism import CATEGORIES
+
+    seed = 50_000 + 1000 * CATEGORIES.index("edge-cut") + 19  # bench_detector_real's edge-cut-019
+    f = make_real_frame(BOARD, "edge-cut", np.random.default_rng(seed), (848, 480))
+    assert 0.7 < f.in_image[0] < 0.9 and f.objects[0].extents[2] > 0.15  # type: ignore[attr-defined]
+    det = detect(f.points_base, f.board, rgb=f.rgb)
+    assert len(det.objects) == 1, det.objects
+    err, obj = _errors_mm(det, f)[0]
+    assert "image_edge" in obj.truncated and obj.confidence < 0.5  # type: ignore[attr-defined]
+    assert err < 20.0 and obj.extents[2] > 0.15  # type: ignore[attr-defined]
+
+
 def test_objects_behind_the_fingers_are_within_8_mm_or_unconfident(real: dict[str, RealFrame]) -> None:
     f = real["occluded"]
     det = detect(f.points_base, f.board, rgb=f.rgb)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import time
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -183,11 +184,16 @@ def detect(
         if obj.b.shape[1] < params.min_points:
             continue
         est = estimate_object(obj, fit.plane.rms, params.curvature)
-        if est.size[1] < params.min_width or est.height < params.min_object_height:
+        if est.whole_size[1] < params.min_width or est.height < params.min_object_height:
             continue  # a sliver of mixed pixels, or below the height floor
+        view = in_view(obj, est.height, params.colour_tol, depth)
+        if est.size[1] < params.min_width:  # a sliver of a top
+            if not view.reasons:
+                continue  # mixed pixels along a silhouette
+            # the top out of view (a tall object cut by the image border): what is seen of it
+            est = replace(est, center_xy=est.whole_xy, size=est.whole_size)
         if board.field_of_board_xy(est.center_xy[None, :])[0, 0] < 0:
             continue  # not on the field grid
-        view = in_view(obj, est.height, params.colour_tol, depth)
         if view.off_board > OFF_BOARD:
             continue  # beside the board (on the table)
         if need_white and colours is not None:

@@ -9,7 +9,7 @@ which is symmetric about the centre whatever the viewing direction.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from scipy import ndimage
@@ -29,7 +29,9 @@ class ObjectEstimate:
 
     center_xy: (2,) footprint centre. height: top above the board. size: (length, width) with
     length >= width. yaw: direction of the length axis. centroid: (3,) mean of the points.
-    curved: the top was fitted as a cap.
+    curved: the top was fitted as a cap. whole_xy, whole_size: centre (2,) and (length, width) of
+    the rectangle around every point of the object, not only its top: what is left of an object
+    whose top is out of view (a tall object cut by the image border shows its side).
     """
 
     center_xy: np.ndarray
@@ -39,6 +41,8 @@ class ObjectEstimate:
     centroid: np.ndarray
     curved: bool
     n_points: int
+    whole_xy: np.ndarray = field(default_factory=lambda: np.zeros(2))
+    whole_size: tuple[float, float] = (0.0, 0.0)
 
 
 def fit_top(x: np.ndarray, y: np.ndarray, h: np.ndarray) -> tuple[np.ndarray, float] | None:
@@ -182,4 +186,6 @@ def estimate_object(obj: ObjectPoints, noise: float, curvature: float) -> Object
     return ObjectEstimate(
         center_xy=np.asarray(center_xy, dtype=np.float64), height=height,
         size=(float(size[0]), float(size[1])), yaw=yaw, centroid=centroid, curved=curved, n_points=n,
+        whole_xy=np.asarray(whole.center, dtype=np.float64),
+        whole_size=(float(whole.size.max()), float(whole.size.min())),
     )  # fmt: skip

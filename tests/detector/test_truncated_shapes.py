@@ -116,3 +116,38 @@ def test_a_top_with_board_seen_on_its_left_is_not_cut() -> None:
     cloud = _scene(lambda du, dv: np.where((np.abs(du) <= a) & (np.abs(dv) <= a), 0.05, 0.0), unseen=unseen)
     o = _one(cloud)
     assert o.truncated == () and o.confidence > 0.9
+
+
+def _black_box(du: np.ndarray, dv: np.ndarray) -> np.ndarray:
+    a = 0.03
+    return np.where((np.abs(du) <= a) & (np.abs(dv) <= a), 0.04, 0.0)
+
+
+def test_missing_depth_of_a_dark_tops_colour_is_the_top() -> None:
+    """A black box whose top's left third returns no depth, nor does the board beside it (a shadow
+    over both; the colour camera sees them) keeps its centre; the board (white) has another colour."""
+    full = _scene(_black_box)
+    rgb = np.where(full[..., 2:] > 0.02, np.array([25, 25, 28]), np.array([235, 235, 230])).astype(np.uint8)
+    holed = _scene(_black_box, hole=(0.0, -0.07, 0.056))  # the top is seen from dv = -23 mm on
+    before = detect(holed, BOARD).objects[0]  # without colours: the seen part
+    assert np.hypot(*(np.array(before.center[:2]) - TRUE_XY)) > 0.003
+    o = detect(holed, BOARD, rgb=rgb).objects[0]
+    assert np.hypot(*(np.array(o.center[:2]) - TRUE_XY)) < 0.0015
+    assert abs(o.extents[0] - 0.06) < 0.003 and abs(o.extents[1] - 0.06) < 0.003
+
+
+def test_missing_depth_of_the_tops_colour_bordered_by_the_board_is_not_the_top() -> None:
+    """The same box with a band of missing depth of its colour along one side and the board with
+    depth right past it (a side face seen too obliquely, as flat-shaded renderings give): the band
+    is not on the top's plane, so the footprint stays the top's."""
+    a = 0.03
+    full = _scene(_black_box)
+    rgb = np.where(full[..., 2:] > 0.02, np.array([25, 25, 28]), np.array([235, 235, 230])).astype(np.uint8)
+    du = np.arange(-0.26, 0.26, STEP)[:, None] - FIELD[0]
+    dv = np.arange(-0.34, 0.34, STEP)[None, :] - FIELD[1]
+    side = (np.abs(du) <= a) & (dv > -a - 0.012) & (dv < -a)  # 12 mm outside the top, board beyond
+    rgb[side] = (25, 25, 28)
+    cloud = _scene(_black_box, unseen=lambda dv_, h: side)
+    o = detect(cloud, BOARD, rgb=rgb).objects[0]
+    assert abs(o.extents[0] - 2 * a) < 0.003 and abs(o.extents[1] - 2 * a) < 0.003, o.extents
+    assert np.hypot(*(np.array(o.center[:2]) - TRUE_XY)) < 0.0015

@@ -183,7 +183,7 @@ def detect(
     for obj in found:
         if obj.b.shape[1] < params.min_points:
             continue
-        est = estimate_object(obj, fit.plane.rms, params.curvature)
+        est = estimate_object(obj, fit.plane.rms, params.curvature, params.colour_tol)
         if est.whole_size[1] < params.min_width or est.height < params.min_object_height:
             continue  # a sliver of mixed pixels, or below the height floor
         view = in_view(obj, est.height, params.colour_tol, depth)

@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import ndimage
 
+from .holes import unseen_top
 from .outline import Rect, min_area_rect
 from .pixels import median
 from .rim import round_footprint
@@ -120,7 +121,9 @@ def _solid(obj: ObjectPoints, subset: np.ndarray) -> np.ndarray:
     return subset & keep[labels[obj.rows, obj.cols]]
 
 
-def estimate_object(obj: ObjectPoints, noise: float, curvature: float) -> ObjectEstimate:
+def estimate_object(
+    obj: ObjectPoints, noise: float, curvature: float, colour_tol: float = 0.0
+) -> ObjectEstimate:
     """Footprint, height and centre of one object.
 
     obj: the object's points, board frame, metres (z = height above the board). noise: depth noise
@@ -132,6 +135,7 @@ def estimate_object(obj: ObjectPoints, noise: float, curvature: float) -> Object
     it. The footprint of a flat top is the rectangle of the points within 3 sigma of the top
     height: the top and the upper edge of the visible sides, which project onto the footprint,
     and not the mixed pixels that a depth camera leaves along silhouettes (they lie outside it).
+    colour_tol > 0: missing-depth pixels of a flat top's colour are part of it (:mod:`.holes`).
     """
     b_all = obj.b
     n = b_all.shape[1]
@@ -169,7 +173,8 @@ def estimate_object(obj: ObjectPoints, noise: float, curvature: float) -> Object
         height = float(median(top[2])) if top.shape[1] else h_hi
         face = _solid(obj, b_all[2] > height - max(3 * noise, 0.004))
         if np.count_nonzero(face) >= 3:
-            rect = min_area_rect(obj.boundary_xy(face))
+            unseen = unseen_top(obj, face, colour_tol) if colour_tol > 0 else np.zeros((0, 2))
+            rect = min_area_rect(np.vstack([obj.boundary_xy(face), unseen]))
             yaw = rect.yaw
         center_xy = rect.center
         size = rect.size

@@ -1,0 +1,120 @@
+"""Missing depth on a flat top, placed on the top from its colour.
+
+A stereo camera returns no depth on dark or glossy patches, and none where the second imager's
+view is blocked (the fingers' shadow). The colour camera still sees those pixels. Where they have
+the top's colour and join the top on the pixel grid, they may be the top: the top is a plane, so
+the pixel grid maps onto it by a homography, fitted on the top's pixels with depth, which places
+the others. A patch of such pixels is taken only when what borders it is the top itself or more
+missing depth (a hole inside the top, a shadow or an invalid band that also covers the board
+beside the object): a patch that the board with depth borders is a side face of the top's colour
+that the camera saw too obliquely (it is not on the top's plane). Nothing is done where the board
+around the object has the top's colour (the board's missing depth, the object's stereo shadow,
+could not be told apart from the top).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy import ndimage
+
+from .depth_clean import EIGHT, chroma, colour_distance
+from .pixels import grow, median, where
+from .segment import ObjectPoints
+
+MIN_SHARE = 0.03  # fewer missing pixels of the top's colour than this share of the top: nothing to do
+BOARD_LIKE = 0.05  # share of the board around the object of the top's colour above which nothing is done
+RAISED = 0.005  # metres above the board: the object, not the board, around the missing pixels
+OFF_TOP = 0.2  # largest share of the object's pixels around a missing patch that are off the top
+BOARD_SEEN = 0.25  # largest share of a patch's border that is the board with depth
+SAMPLE = 400  # top pixels used for the pixel-to-top map
+BORDER_PX = 3  # what lies this many pixels around a patch borders it (past the 1-2 px of mixed pixels)
+
+
+def pixel_to_plane(rows: np.ndarray, cols: np.ndarray, xy: np.ndarray) -> np.ndarray | None:
+    """(3, 3) homography H mapping pixels (col, row, 1) to points (x, y, 1) of one plane, fitted by
+    the direct linear transform on (n,) pixels with known plane points xy (n, 2) (n >= 4,
+    coordinates normalised for the fit); None when the pixels do not span the plane."""
+    if rows.size < 4:
+        return None
+
+    def norm(u: np.ndarray, v: np.ndarray) -> np.ndarray:
+        m = np.array([u.mean(), v.mean()])
+        s = np.sqrt(2.0) / max(float(np.mean(np.hypot(u - m[0], v - m[1]))), 1e-12)
+        return np.array([[s, 0.0, -s * m[0]], [0.0, s, -s * m[1]], [0.0, 0.0, 1.0]])
+
+    Tp, Tx = norm(cols.astype(np.float64), rows.astype(np.float64)), norm(xy[:, 0], xy[:, 1])
+    p = Tp @ np.vstack([cols, rows, np.ones(rows.size)])
+    q = Tx @ np.vstack([xy[:, 0], xy[:, 1], np.ones(rows.size)])
+    zero = np.zeros((rows.size, 3))
+    A = np.vstack([
+        np.hstack([p.T, zero, -q[0][:, None] * p.T]),
+        np.hstack([zero, p.T, -q[1][:, None] * p.T]),
+    ])  # fmt: skip
+    _, s, vt = np.linalg.svd(A, full_matrices=False)
+    if s[-2] < 1e-9 * s[0]:
+        return None
+    return np.asarray(np.linalg.inv(Tx) @ vt[-1].reshape(3, 3) @ Tp)
+
+
+def unseen_top(obj: ObjectPoints, face: np.ndarray, tol: float) -> np.ndarray:
+    """(k, 2) board-frame xy (metres) of the missing-depth pixels of the top's colour that join the
+    top ``face`` ((n,) bool over the object's points) on the pixel grid and are not bordered by the
+    board with depth; (0, 2) when there are none, no colours, or the board around has the top's
+    colour. tol: colour distance (:func:`.depth_clean.colour_distance` of :func:`.depth_clean.chroma`)."""
+    none = np.zeros((0, 2))
+    if obj.rgb is None or obj.rows is None or obj.cols is None or obj.window is None:
+        return none
+    fr, fc = obj.rows[face], obj.cols[face]
+    if fr.size < 20:
+        return none
+    grid = np.zeros(obj.shape, dtype=bool)
+    grid[fr, fc] = True
+    h = obj.window[2]
+    missing = np.isnan(h)
+    a_r, a_c = where(missing & grow(grid, 3))  # missing pixels next to the top
+    if a_r.size == 0:
+        return none
+    own = chroma(median(obj.rgb[fr[::4], fc[::4]].astype(np.float64)))
+    if not (colour_distance(chroma(obj.rgb[a_r, a_c]), own) < tol).any():
+        return none  # none of the top's colour (the board in the object's stereo shadow)
+    m_r, m_c = where(missing)
+    same = np.zeros_like(missing)
+    same[m_r, m_c] = colour_distance(chroma(obj.rgb[m_r, m_c]), own) < tol
+    if np.count_nonzero(same) < MIN_SHARE * fr.size:
+        return none
+    with np.errstate(invalid="ignore"):
+        board = (np.abs(h[::2, ::2]) < RAISED) & grow(grid[::2, ::2], 9)
+    b_r, b_c = where(board)
+    b_r, b_c = 2 * b_r, 2 * b_c
+    if b_r.size and np.mean(colour_distance(chroma(obj.rgb[b_r, b_c]), own) < tol) > BOARD_LIKE:
+        return none  # the object stands on its own colour
+    labels, _ = ndimage.label(grid | same, structure=EIGHT)
+    joined = np.zeros(labels.max() + 1, dtype=bool)
+    joined[labels[fr, fc]] = True
+    joined[0] = False
+    filled = same & joined[labels]
+    # each patch of them: what borders it must be the top or more missing depth (not the board with
+    # depth: a side face; not the object's other pixels with depth: a cone's flank or a side)
+    parts, n = ndimage.label(filled, structure=EIGHT)
+    near = ndimage.maximum_filter(parts, size=2 * BORDER_PX + 1)  # the patch a pixel borders
+    with np.errstate(invalid="ignore"):
+        border = (near > 0) & ~filled
+        raised = border & (h > RAISED)
+        flat = border & (np.abs(h) < RAISED)
+    total = np.bincount(near[border], minlength=n + 1)
+    off = np.bincount(near[raised & ~grid], minlength=n + 1)
+    on_board = np.bincount(near[flat], minlength=n + 1)
+    good = (off <= OFF_TOP * np.bincount(near[raised], minlength=n + 1)) & (on_board <= BOARD_SEEN * total)
+    good[0] = False
+    hr, hc = where(good[parts])
+    if hr.size < MIN_SHARE * fr.size:
+        return none
+    k = max(1, fr.size // SAMPLE)
+    sr, sc = fr[::k], fc[::k]
+    H = pixel_to_plane(sr, sc, obj.window[:2, sr, sc].T.astype(np.float64))
+    if H is None:
+        return none
+    q = H @ np.vstack([hc, hr, np.ones(hr.size)])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        out = (q[:2] / q[2]).T
+    return out[np.isfinite(out).all(axis=1)]  # type: ignore[no-any-return]

@@ -76,8 +76,9 @@ def noise_warning(fit: Fit) -> list[str]:
     ]
 
 
-def distinct_orientations(T_base_flange: np.ndarray) -> int:
-    """How many flange orientations differ by more than ``DISTINCT_DEG`` from each other (greedy).
+def distinct_orientations(T_base_flange: np.ndarray, enough: int | None = None) -> int:
+    """How many flange orientations differ by more than ``DISTINCT_DEG`` from each other (greedy),
+    counting up to ``enough`` at most (all when None).
 
     The angle between R_i and R_j from trace(R_i^T R_j) = 1 + 2 cos(angle), all pairs at once."""
     F = T_base_flange[:, :3, :3].reshape(-1, 9)
@@ -87,6 +88,8 @@ def distinct_orientations(T_base_flange: np.ndarray) -> int:
     for i in range(len(F)):
         if not covered[i]:
             count += 1
+            if count == enough:
+                break
             covered |= close[i]
     return count
 
@@ -101,7 +104,7 @@ def redundancy_warning(fit: Fit, T_base_flange: np.ndarray) -> list[str]:
             f"{m} samples leave no redundancy: the uncertainty is the modelled noise, not measured; add "
             "poses tilted 15-30 deg about different axes"
         ]
-    k = distinct_orientations(T_base_flange[fit.samples])
+    k = distinct_orientations(T_base_flange[fit.samples], None if m <= FEW_POSES else FEW_ORIENTATIONS + 1)
     if m > FEW_POSES and k > FEW_ORIENTATIONS:
         return []
     f = np.sqrt(max(k, 1) / (max(k, 1) + ADD_POSES))

@@ -6,10 +6,11 @@ from dataclasses import dataclass, field, replace
 from typing import Literal
 
 import numpy as np
-from sofia_schemas.transforms import as_points, as_transforms
+from sofia_schemas.transforms import ORTHONORMAL_TOL, as_points, as_transforms
 
 from . import correction as cc
 from . import diagnostics as dg
+from . import kernels
 from .advice import criterion_advice, noise_warning, redundancy_warning
 from .errors import InputMismatch, TooFewSamples
 from .fit import Fit, Problem, Selection
@@ -50,7 +51,12 @@ def _validate(
     p_cam: np.ndarray, T_base_flange: np.ndarray, guess: np.ndarray | None
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
     p = as_points(p_cam, "p_cam")
-    T = as_transforms(T_base_flange, "T_base_flange")
+    T = np.asarray(T_base_flange, dtype=np.float64)
+    # valid poses (checked at half the tolerance, compiled) skip the numpy validation; anything
+    # else, borderline ones included, goes through it for the verdict and the message
+    fast = T.ndim == 3 and T.shape[1:] == (4, 4)
+    if not (fast and kernels.rigid_transforms(kernels.c_array(T), 0.5 * ORTHONORMAL_TOL)):
+        T = as_transforms(T_base_flange, "T_base_flange")
     if T.ndim != 3:
         raise InputMismatch(f"T_base_flange must be (n, 4, 4), got {T.shape}")
     if len(p) != len(T):
@@ -182,7 +188,7 @@ def calibrate(
     everything = prob.explain(idx, sel_all)
     cleaned = prob.explain(kept, sel) if outliers else everything
     chosen, chosen_sel = (cleaned, sel) if exclude_outliers else (everything, sel_all)
-    chosen_idx = np.array(chosen.samples)
+    chosen_idx = kept if exclude_outliers else idx  # chosen.samples
     loo = chosen.residuals_mm
     if leave_one_out:
         loo = _loo_mm(
@@ -191,7 +197,8 @@ def calibrate(
     ref_mm = np.full((n, 3), np.nan)
     ref_mm[chosen_idx] = -1e3 * chosen_sel.reference_errors
     advice: list[int] = []
-    if not chosen.passes and enforce_criterion and len(chosen_idx) >= MIN_SAMPLES + 3:
+    passes = chosen.passes
+    if not passes and enforce_criterion and len(chosen_idx) >= MIN_SAMPLES + 3:
         advice = criterion_advice(prob, chosen_sel, chosen_idx, max(1, min(len(chosen_idx) // 5, MAX_ADVICE)))
     warnings += redundancy_warning(chosen, T)
     warnings += noise_warning(chosen)
@@ -207,7 +214,7 @@ def calibrate(
             f"per-axis spread with every sample {np.round(everything.spread_mm, 1).tolist()} mm, without "
             f"samples {outliers} {np.round(cleaned.spread_mm, 1).tolist()} mm"
         )
-    if not chosen.passes:
+    if not passes:
         worst = chosen.samples[int(np.argmax(loo[chosen_idx]))]
         tail = (
             f"removing samples {advice} would meet it (advice only: nothing was removed)"
@@ -218,7 +225,7 @@ def calibrate(
             f"(limit {dg.LAB_SPREAD_LIMIT_MM:.0f} mm); {tail}: re-record it or add poses"
         )
     return Calibration(
-        **{k: getattr(chosen, k) for k in Fit.__dataclass_fields__},
+        **vars(chosen),
         inliers=chosen.samples, outliers=outliers, leave_one_out_mm=loo, warnings=warnings,
         with_all_samples=everything if (outliers and exclude_outliers) else None,
         without_outliers=cleaned if (outliers and not exclude_outliers) else None,

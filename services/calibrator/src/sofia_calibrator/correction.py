@@ -14,6 +14,7 @@ camera along its z axis, which ``T_flange_cam`` already does (point data cannot 
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -73,7 +74,7 @@ class Candidate:
 
     @property
     def aic(self) -> float:
-        return float(self.n_obs * np.log(max(self.chi2, 1e-300) / self.n_obs) + 2 * self.n_params)
+        return self.n_obs * math.log(max(self.chi2, 1e-300) / self.n_obs) + 2 * self.n_params
 
 
 def choose(cands: list[Candidate], alpha: float = MODEL_ALPHA) -> tuple[Candidate, str]:

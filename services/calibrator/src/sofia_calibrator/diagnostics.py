@@ -3,10 +3,14 @@ observability. Inputs are trusted (validated by :func:`sofia_calibrator.calibrat
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
-from . import so3
+from . import kernels, so3
 from .errors import DegenerateMotion
+from .kernels import jit, sym_eig
+from .so3 import log_so3
 
 LAB_SPREAD_LIMIT_MM = 10.0
 MIN_ROTATION_DEG = 2.0
@@ -50,15 +54,11 @@ def dissipation(p_base: np.ndarray) -> float:
     return float(2.0 * pdist(p_base).sum())
 
 
-def std_from_covariance(R_flange_cam: np.ndarray, cov: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """1-sigma of (translation mm, rotation deg about the flange axes) from a (9, 9) covariance.
-
-    cov: covariance of (theta (right perturbation, camera frame), t (flange frame, m), p_base).
-    """
-    cov_phi = R_flange_cam @ cov[:3, :3] @ R_flange_cam.T  # left perturbation: flange axes
-    std_rot = np.degrees(np.sqrt(np.maximum(cov_phi.diagonal(), 0.0)))
-    std_t = 1e3 * np.sqrt(np.maximum(cov.diagonal()[3:6], 0.0))
-    return std_t, std_rot
+def std_from_covariance6(cov6: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """1-sigma of (translation mm, rotation deg about the flange axes) from the (6, 6) covariance
+    of :func:`covariance6`."""
+    std = np.sqrt(np.maximum(cov6.diagonal(), 0.0))
+    return 1e3 * std[:3], np.degrees(std[3:])
 
 
 def covariance6(R_flange_cam: np.ndarray, cov: np.ndarray) -> np.ndarray:
@@ -97,10 +97,7 @@ def check_motion(T_base_flange: np.ndarray) -> list[str]:
     with translation only, the camera offset is not observable; with rotations about one axis
     only, the offset along that axis is not.
     """
-    R = T_base_flange[:, :3, :3]
-    rel = so3.log(R[0].T @ R[1:])
-    ev = np.linalg.eigvalsh(rel.T @ rel)  # singular values of rel, squared, ascending
-    s = np.degrees(np.sqrt(np.maximum(ev[::-1], 0.0))) / np.sqrt(max(len(rel), 1))
+    s, S = rotation_spread(kernels.c_array(T_base_flange[:, :3, :3]))
     if s[0] < MIN_ROTATION_DEG:
         raise DegenerateMotion(
             f"the flange barely rotates between samples (largest rotation spread {s[0]:.2f} deg)",
@@ -108,7 +105,7 @@ def check_motion(T_base_flange: np.ndarray) -> list[str]:
             "two different axes while keeping the blob in view",
         )
     if s[1] < MIN_ROTATION_DEG and s[1] < ONE_AXIS_RATIO * s[0]:
-        axis = np.linalg.eigh(rel.T @ rel)[1][:, 2]
+        axis = np.linalg.eigh(S)[1][:, 2]
         raise DegenerateMotion(
             f"all rotations are about one axis (flange axis {np.round(axis, 2).tolist()}, "
             f"spread about other axes {s[1]:.2f} deg)",
@@ -125,3 +122,33 @@ def check_motion(T_base_flange: np.ndarray) -> list[str]:
             "add poses tilted about a different axis to pin the camera offset"
         ]
     return []
+
+
+@jit
+def rotation_spread(R_base_flange):  # type: ignore[no-untyped-def]
+    """How the flange turns over a set (see :func:`check_motion`):
+    rel (n - 1, 3) the rotation vectors of R_0^T R_i; returns (s (3,) the RMS spread of rel along
+    its principal axes, degrees, largest first; rel^T rel (3, 3))."""
+    n = R_base_flange.shape[0]
+    rel_R = np.empty((max(n - 1, 0), 3, 3))
+    for i in range(1, n):
+        for a in range(3):
+            for b in range(3):
+                rel_R[i - 1, a, b] = (R_base_flange[0, 0, a] * R_base_flange[i, 0, b]
+                                      + R_base_flange[0, 1, a] * R_base_flange[i, 1, b]
+                                      + R_base_flange[0, 2, a] * R_base_flange[i, 2, b])  # fmt: skip
+    rel = log_so3(rel_R)
+    S = np.zeros((3, 3))
+    for i in range(n - 1):
+        for a in range(3):
+            for b in range(3):
+                S[a, b] += rel[i, a] * rel[i, b]
+    ev = sym_eig(S)[0]  # singular values of rel, squared
+    for i in range(2):  # largest first
+        for j in range(2 - i):
+            if ev[j] < ev[j + 1]:
+                ev[j], ev[j + 1] = ev[j + 1], ev[j]
+    s = np.empty(3)
+    for j in range(3):
+        s[j] = math.degrees(math.sqrt(max(ev[j], 0.0))) / math.sqrt(max(n - 1, 1))
+    return s, S

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from functools import lru_cache
 
@@ -12,10 +13,13 @@ from sofia_schemas.transforms import matrix_to_quat_xyzw, rpy_from_matrix
 
 from . import correction as cc
 from . import diagnostics as dg
-from . import so3
-from .linalg import inverse
+from . import fit_kernels as fk
+from . import kernels, so3
 from .noise import NoiseModel, rms_mm
 from .solver import Solution, refine, solve
+
+_EYE4 = np.eye(4)
+_EYE4.flags.writeable = False
 
 
 @dataclass
@@ -46,7 +50,7 @@ class Fit:
 
     @property
     def passes(self) -> bool:
-        return bool(np.all(self.spread_mm < dg.LAB_SPREAD_LIMIT_MM))
+        return bool((self.spread_mm < dg.LAB_SPREAD_LIMIT_MM).all())
 
     @property
     def translation(self) -> np.ndarray:
@@ -118,30 +122,32 @@ class Problem:
         noise = self.noise.estimated(ref.errors, idx, 3 * m - 9 - cc.N_EXTRA[self.models[0]])
         sigma = noise.sigma(idx)
         models = self.models if m >= cc.MIN_SAMPLES_FOR_SCALE else self.models[:1]
-        steps = _gauss_newton_steps(ref, self.p_cam[idx], sigma0, sigma, models)
+        p, T = self.p_cam[idx], self.T_base_flange[idx]
+        ks = [cc.N_EXTRA[mo] for mo in models]
+        assert ref.J is not None
+        G = np.concatenate([cc.columns(mo, p) for mo in models], axis=2)
+        chi2, dx, beta, cov9, beta_sigma = fk.gauss_newton_steps(
+            ref.J, ref.errors, sigma0, sigma, G, np.array(ks, dtype=np.int64)
+        )
         cands = [
-            cc.Candidate(
-                mo, st.chi2, 9 + len(st.beta), 3 * m, st.beta, st.beta_sigma if len(st.beta) else None
-            )
-            for mo, st in zip(models, steps, strict=True)
+            cc.Candidate(mo, float(chi2[b]), 9 + kb, 3 * m, beta[b, :kb], beta_sigma[b, :kb] if kb else None)
+            for b, (mo, kb) in enumerate(zip(models, ks, strict=True))
         ]
         chosen, reason = cc.choose(cands) if len(cands) > 1 else (cands[0], f"{cands[0].model} (as asked)")
         k = cands.index(chosen)
-        dx, beta = steps[k].dx, steps[k].beta
-        p, T = self.p_cam[idx], self.T_base_flange[idx]
-        sol = refine(p, T[:, :3, :3], T[:, :3, 3], sigma, ref.R @ so3.exp(dx[:3]), ref.t + dx[3:6],
-                     ref.p_base + dx[6:9], self.loss, self.loss_scale, model=chosen.model, beta=beta)  # fmt: skip
+        sol = refine(p, T[:, :3, :3], T[:, :3, 3], sigma, ref.R @ so3.exp(dx[k, :3]), ref.t + dx[k, 3:6],
+                     ref.p_base + dx[k, 6:9], self.loss, self.loss_scale, model=chosen.model, beta=chosen.beta)  # fmt: skip
         chosen.chi2, chosen.beta = sol.cost, sol.beta
         # model-averaged covariance (Buckland): the other models' spread, by Akaike weight
-        aic = np.array([c.aic for c in cands])
-        w = np.exp(-0.5 * (aic - aic.min()))
-        w /= w.sum()
+        aic = [c.aic for c in cands]
+        w = [math.exp(-0.5 * (a - min(aic))) for a in aic]
+        w = [wb / sum(w) for wb in w]
         extra = np.zeros((9, 9))
-        for wk, st, c in zip(w, steps, cands, strict=True):
-            if c is not chosen and wk > 1e-6:
-                d = st.dx - dx
-                extra += wk * (st.cov9 + np.outer(d, d))
-        return Selection(sol, cands, reason, noise, extra, float(w[k]), ref.errors)
+        for b, c in enumerate(cands):
+            if c is not chosen and w[b] > 1e-6:
+                d = dx[b] - dx[k]
+                extra += w[b] * (cov9[b] + d[:, None] * d)
+        return Selection(sol, cands, reason, noise, extra, w[k], ref.errors)
 
     def explain(self, idx: np.ndarray, sel: Selection) -> Fit:
         """The :class:`Fit` of a selection over samples ``idx``."""
@@ -149,73 +155,33 @@ class Problem:
         T_fc = sol.T_flange_cam
         corr_p = cc.apply(sol.model, sol.beta, self.p_cam)
         mapped = dg.map_to_base(self.T_base_flange, T_fc, corr_p)
-        T0 = np.eye(4) if self.guess is None else self.guess
+        d = mapped - sol.p_base
+        T0 = _EYE4 if self.guess is None else self.guess
         mapped_start = dg.map_to_base(self.T_base_flange, T0, self.p_cam)
         dof = 3 * len(idx) - 9 - len(sol.beta)
         scale2 = sol.cost / dof if dof > 0 else 1.0
-        cov = inverse(sol.JtJ) * scale2
+        cov = kernels.inverse(sol.JtJ) * scale2
         cov[:9, :9] = sel.weight * cov[:9, :9] + sel.other_models9
         cov *= t_inflation(dof)
-        std_t, std_r = dg.std_from_covariance(sol.R, cov)
+        cov6 = dg.covariance6(sol.R, cov)
+        std_t, std_r = dg.std_from_covariance6(cov6)
         beta_sigma = np.sqrt(np.maximum(cov.diagonal()[9:], 0.0)) if len(sol.beta) else None
         sigma_all = noise.sigma() * np.sqrt(scale2)
         noise_mm, cam_mm = rms_mm(sigma_all[idx]), rms_mm(self.camera[idx])
         return Fit(
-            T_flange_cam=T_fc, p_base=sol.p_base, samples=[int(i) for i in idx], mapped_base=mapped,
-            mapped_start=mapped_start, residuals_mm=1e3 * np.linalg.norm(mapped - sol.p_base, axis=1),
+            T_flange_cam=T_fc, p_base=sol.p_base, samples=idx.tolist(), mapped_base=mapped,
+            mapped_start=mapped_start, residuals_mm=1e3 * np.sqrt(np.einsum("ij,ij->i", d, d)),
             spread_mm=1e3 * dg.spread(mapped[idx]), dissipation_before=dg.dissipation(mapped_start[idx]),
             dissipation_after=dg.dissipation(mapped[idx]), std_translation_mm=std_t,
             std_rotation_deg=std_r, covariance=cov, noise_scale=noise_mm / max(cam_mm, 1e-9),
             n_iter=sol.n_iter, correction=cc.message(sol.model, sol.beta, beta_sigma),
-            covariance6=dg.covariance6(sol.R, cov), noise_mm=noise_mm, camera_noise_mm=cam_mm,
+            covariance6=cov6, noise_mm=noise_mm, camera_noise_mm=cam_mm,
             sigma=sigma_all, solution=sol,
         )  # fmt: skip
 
 
-@dataclass
-class _Step:
-    chi2: float  # in units of the new noise
-    dx: np.ndarray  # (9,) step of (theta, t, p_base) from the reference
-    beta: np.ndarray  # (k,)
-    cov9: np.ndarray  # (9, 9) covariance of (theta, t, p_base), scaled by chi2 / dof
-    beta_sigma: np.ndarray  # (k,) 1-sigma of beta, scaled the same way
-
-
+@lru_cache(maxsize=64)
 def t_inflation(dof: int) -> float:
     """Factor on a covariance whose noise level was estimated with ``dof`` degrees of freedom, so
     that its 1-sigma is the 68.3 % Student-t half-width (1 for unknown dof)."""
     return float(stdtrit(dof, 0.8413447460685429) ** 2) if dof > 0 else 1.0
-
-
-def _gauss_newton_steps(
-    ref: Solution, p_cam: np.ndarray, sigma_ref: np.ndarray, sigma: np.ndarray, models: tuple[str, ...]
-) -> list[_Step]:
-    """Each of ``models`` after one Gauss-Newton step from the reference solution (fitted under the
-    noise ``sigma_ref``), under the noise ``sigma`` (m, 3) metres: one Jacobian with every model's
-    correction columns, each model's normal equations a principal block of it."""
-    assert ref.J is not None
-    m = len(p_cam)
-    r = (ref.errors / sigma).ravel()
-    Gs = [cc.columns(model, p_cam) for model in models]
-    J = np.concatenate([ref.J.reshape(m, 3, -1)[:, :, :9] * (sigma_ref / sigma)[:, :, None], *Gs], axis=2)
-    J[:, :, 9:] /= -sigma[:, :, None]
-    J = J.reshape(3 * m, -1)
-    M, g_all, rr = J.T @ J, J.T @ r, float(r @ r)
-    steps = []
-    for cols in _blocks(tuple(G.shape[2] for G in Gs)):
-        C, g = inverse(M.take(cols, 0).take(cols, 1)), g_all.take(cols)
-        dx = -C @ g
-        chi2 = rr + float(g @ dx)
-        dof = 3 * m - len(cols)
-        s2 = chi2 / dof if dof > 0 else 1.0
-        beta_sigma = np.sqrt(np.maximum(C.diagonal()[9:] * s2, 0.0))
-        steps.append(_Step(chi2, dx[:9], dx[9:], C[:9, :9] * s2, beta_sigma))
-    return steps
-
-
-@lru_cache(maxsize=8)
-def _blocks(extra: tuple[int, ...]) -> list[np.ndarray]:
-    """Column indices of each model in the joint Jacobian: the 9 shared unknowns, then the model's
-    ``extra[i]`` correction columns (stacked after 9 in model order)."""
-    ends = 9 + np.cumsum(extra)
-    return [np.r_[0:9, e - k : e] for k, e in zip(extra, ends, strict=True)]

@@ -17,10 +17,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.special import fdtrc
 
-from .linalg import inverse
+from .kernels import inverse, jit, solve3
 from .solver import Solution
-
-_EYE3_REGULARISED = (1.0 + 1e-12) * np.eye(3)  # I, nudged so that I - H_ii stays invertible
 
 
 @dataclass
@@ -33,20 +31,43 @@ class Influence:
 def influence(sol: Solution) -> Influence:
     """Leave-one-out quantities of a solution over its m samples (see the module docstring)."""
     assert sol.J is not None and sol.whitened is not None
-    m, p = len(sol.errors), sol.J.shape[1]
-    J = sol.J.reshape(m, 3, p)
     r = sol.whitened
-    C = inverse(sol.JtJ)
-    JC = J @ C  # (m, 3, p)
-    H = JC @ np.swapaxes(J, 1, 2)  # (m, 3, 3) diagonal blocks
-    d = np.linalg.solve(_EYE3_REGULARISED - H, r[:, :, None])[:, :, 0]  # (I - H_ii)^-1 r_i
-    shift = np.einsum("map,ma->mp", JC, d)
-    q = np.einsum("ma,ma->m", r, d)
-    dof = 3 * m - p
-    rss = float(np.vdot(r, r))
+    d, shift, q = _influence(sol.J, r, sol.JtJ)
+    dof = 3 * len(r) - sol.J.shape[1]
     if dof > 3:
-        s2 = np.maximum(rss - q, 1e-300) / (dof - 3)
+        s2 = np.maximum(float(np.vdot(r, r)) - q, 1e-300) / (dof - 3)
         pv = fdtrc(3, dof - 3, np.maximum(q, 0.0) / (3 * s2))
     else:
-        pv = np.full(m, np.nan)
+        pv = np.full(len(r), np.nan)
     return Influence(d, shift, np.asarray(pv))
+
+
+@jit
+def _influence(J, r, JtJ):  # type: ignore[no-untyped-def]
+    """Leave-one-out quantities of a fit (see the module docstring): whitened Jacobian
+    J (3 m, p), whitened residuals r (m, 3), information JtJ (p, p). Returns (d (m, 3): (I - H_ii)^-1
+    r_i, shift (m, p): C J_i^T d_i, q (m,): r_i . d_i)."""
+    m, p = r.shape[0], J.shape[1]
+    C = inverse(JtJ)
+    JC = np.zeros((3 * m, p))
+    for row in range(3 * m):
+        for a in range(p):
+            for b in range(p):
+                JC[row, b] += J[row, a] * C[a, b]
+    d, shift, q = np.empty((m, 3)), np.zeros((m, p)), np.empty(m)
+    A = np.empty((3, 3))
+    for i in range(m):
+        for a in range(3):
+            for b in range(3):
+                h = 0.0
+                for c in range(p):
+                    h += JC[3 * i + a, c] * J[3 * i + b, c]
+                A[a, b] = (1.0 + 1e-12 if a == b else 0.0) - h  # I nudged so that I - H_ii stays invertible
+        x = solve3(A, r[i])
+        for a in range(3):
+            d[i, a] = x[a]
+        q[i] = r[i, 0] * d[i, 0] + r[i, 1] * d[i, 1] + r[i, 2] * d[i, 2]
+        for a in range(3):
+            for c in range(p):
+                shift[i, c] += JC[3 * i + a, c] * d[i, a]
+    return d, shift, q

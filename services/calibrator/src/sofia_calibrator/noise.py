@@ -8,9 +8,12 @@ residuals.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+import math
+from dataclasses import dataclass
 
 import numpy as np
+
+from .kernels import c_array, jit
 
 # Nominal D435 values: 0.08 px sub-pixel disparity, 383 px focal length, 50 mm baseline
 # -> sigma_z = 0.0042 z^2 (1 mm at 0.5 m); blob centre 0.3 px at 615 px focal length.
@@ -30,10 +33,17 @@ def camera_sigma(
     p_cam: (n, 3) float, camera optical frame (z forward), metres.
     Returns (n, 3) float metres: (lateral, lateral, depth) = (c z, c z, k z^2), floored at 0.1 mm.
     """
-    z = np.abs(p_cam[:, 2])
-    lateral = np.maximum(lateral_coeff * z, FLOOR_M)
-    depth = np.maximum(depth_coeff_per_m * z**2, FLOOR_M)
-    return np.stack([lateral, lateral, depth], axis=1)
+    return _camera_sigma(c_array(p_cam), float(depth_coeff_per_m), float(lateral_coeff))  # type: ignore[no-any-return]
+
+
+@jit
+def _camera_sigma(p_cam, depth_coeff_per_m, lateral_coeff):  # type: ignore[no-untyped-def]
+    out = np.empty((p_cam.shape[0], 3))
+    for i in range(p_cam.shape[0]):
+        z = abs(p_cam[i, 2])
+        out[i, 0] = out[i, 1] = max(lateral_coeff * z, FLOOR_M)
+        out[i, 2] = max(depth_coeff_per_m * z * z, FLOOR_M)
+    return out
 
 
 def sample_noise(p_cam: np.ndarray, rng: np.random.Generator, scale: float = 1.0) -> np.ndarray:
@@ -53,15 +63,24 @@ def isotropic_component(errors: np.ndarray, camera: np.ndarray, dof: int, iterat
     """
     if dof <= 0:
         return float("nan")
-    e2, c2 = errors.ravel() ** 2, camera.ravel() ** 2
+    e, c = (c_array(x).ravel() for x in (errors, camera))
+    return math.sqrt(_isotropic_variance(e, c, float(dof), iterations))
+
+
+@jit
+def _isotropic_variance(e, c, dof, iterations):  # type: ignore[no-untyped-def]
+    """v = s0^2 of :func:`isotropic_component`, e and c (3 n,) raveled errors and camera sigma."""
     v = 0.0
     for _ in range(iterations):
-        w = 1.0 / (v + c2)
-        chi2 = float(e2 @ w)
+        chi2, slope = 0.0, 0.0
+        for i in range(e.size):
+            w = 1.0 / (v + c[i] * c[i])
+            chi2 += e[i] * e[i] * w
+            slope += e[i] * e[i] * w * w
         if chi2 <= dof * (1.0 + 1e-9):
             break
-        v += (chi2 - dof) * chi2 / (dof * float(e2 @ (w * w)))
-    return float(np.sqrt(v))
+        v += (chi2 - dof) * chi2 / (dof * slope)
+    return v
 
 
 @dataclass(frozen=True)
@@ -91,7 +110,7 @@ class NoiseModel:
             level = isotropic_component(errors, self.base[idx], dof)
         else:
             level = float(np.sqrt(np.sum((errors / self.base[idx]) ** 2) / dof))
-        return replace(self, level=max(level, 0.0))
+        return NoiseModel(self.base, self.additive, max(level, 0.0))
 
 
 def rms_mm(sigma: np.ndarray) -> float:

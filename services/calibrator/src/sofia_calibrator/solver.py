@@ -16,13 +16,10 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from . import correction, so3
-from .linalg import spd_solve
+from . import fit_kernels as fk
+from .kernels import c_array as _c
 
 LOSSES = ("linear", "huber", "cauchy")
-# [u]x = u[:, _SKEW_IDX] * _SKEW_SIGN
-_SKEW_IDX = np.array([[0, 2, 1], [2, 0, 0], [1, 0, 0]])
-_MINUS_EYE3 = -np.eye(3)
-_SKEW_SIGN = np.array([[0.0, -1.0, 1.0], [1.0, 0.0, -1.0], [-1.0, 1.0, 0.0]])
 # Up to 5 samples the 15-unknown linear start is not over-determined; more starts are tried.
 MIN_LINEAR_SAMPLES = 5
 MAX_OFFSET_M = 0.5  # a camera further than this from the flange is a wrong minimum
@@ -54,47 +51,21 @@ class Solution:
         return T
 
 
-def _least_squares(A: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """x minimising |A x - b|: normal equations (fast) with an SVD fallback when rank-deficient."""
-    if A.shape[0] >= 2 * A.shape[1]:
-        scale = 1.0 / np.maximum(np.sqrt(np.einsum("ij,ij->j", A, A)), 1e-300)
-        As = A * scale
-        x = spd_solve(As.T @ As, As.T @ b)
-        if x is not None:
-            return x * scale
-    return np.asarray(np.linalg.lstsq(A, b, rcond=None)[0])
-
-
 def linear_init(
     p_cam: np.ndarray, R_base_flange: np.ndarray, t_base_flange: np.ndarray, w: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Closed-form start: R_i (R p_cam_i + t) - p_base = -t_i is linear in (vec R, t, p_base).
 
     p_cam: (n, 3) camera frame; R_base_flange: (n, 3, 3); t_base_flange: (n, 3) base frame, metres;
-    w: (n,) sample weights. The 15-unknown least-squares solution's R is projected onto SO(3)
-    (t and p_base are kept: the first Gauss-Newton step re-solves them with R). Returns
-    (R (3, 3), t (3,), p_base (3,)).
+    w: (n,) sample weights. The 15-unknown least-squares solution (normal equations of the
+    column-equilibrated system when n >= 10, else or when rank-deficient an SVD least squares) has
+    its R projected onto SO(3) (t and p_base are kept: the first Gauss-Newton step re-solves them
+    with R). Returns (R (3, 3), t (3,), p_base (3,)).
     """
-    n = len(p_cam)
-    sw = np.sqrt(w)
-    A = np.empty((n, 3, 15))
-    A[:, :, :9] = (R_base_flange[:, :, :, None] * p_cam[:, None, None, :]).reshape(n, 3, 9)
-    A[:, :, 9:12] = R_base_flange
-    A[:, :, 12:] = _MINUS_EYE3
-    A *= sw[:, None, None]
-    x = _least_squares(A.reshape(-1, 15), (t_base_flange * -sw[:, None]).ravel())
+    A, b, x, solved = fk.linear_system(_c(p_cam), _c(R_base_flange), _c(t_base_flange), _c(w))
+    if not solved:  # not over-determined enough, or rank-deficient
+        x = np.linalg.lstsq(A, b, rcond=None)[0]
     return so3.project(x[:9].reshape(3, 3)), x[9:12], x[12:]
-
-
-def _robust(s: np.ndarray, loss: str, c: float) -> tuple[np.ndarray, np.ndarray]:
-    """rho(s) and rho'(s) of squared whitened norms s (n,), with rho'(0) = 1."""
-    if loss == "huber":
-        r = np.sqrt(s)
-        inside = r <= c
-        return np.where(inside, s, 2 * c * r - c * c), np.where(inside, 1.0, c / np.maximum(r, 1e-300))
-    if loss == "cauchy":
-        return c * c * np.log1p(s / (c * c)), 1.0 / (1.0 + s / (c * c))
-    return s, np.ones_like(s)
 
 
 def refine(
@@ -118,72 +89,16 @@ def refine(
     with df/dtheta = [u_i]x, df/dt = -R^T, df/dp_base = R^T R_i^T, df/dbeta = -G_i (the camera
     correction of ``model``, :mod:`sofia_calibrator.correction`). sigma: (n, 3) per-axis camera-frame
     noise, metres (whitening); loss: "linear", "huber" or "cauchy" with ``loss_scale`` in sigma
-    units (robust loss by iteratively reweighting samples).
+    units (robust loss by iteratively reweighting samples). The iteration runs compiled
+    (:func:`sofia_calibrator.fit_kernels.levenberg_marquardt`).
     """
-    n = len(p_cam)
-    Rt_fl = np.swapaxes(R_base_flange, 1, 2)
-    q0 = -(Rt_fl @ t_base_flange[:, :, None])[:, :, 0]  # q = Rt_fl p_base + q0: blob, flange frame
-    inv_sigma = 1.0 / sigma
     G = correction.columns(model, p_cam)
     k = G.shape[2]
-    minus_Gw = -G * inv_sigma[:, :, None]
-    beta = np.zeros(k) if beta is None or len(beta) != k else np.asarray(beta, dtype=np.float64)
-    ones = np.ones(n)
-
-    def evaluate(
-        R: np.ndarray, t: np.ndarray, p_base: np.ndarray, beta: np.ndarray
-    ) -> tuple[float, np.ndarray, np.ndarray, np.ndarray]:
-        u = (Rt_fl @ p_base + (q0 - t)) @ R  # predicted blob, camera frame
-        r = (u - (p_cam if k == 0 else p_cam + G @ beta)) * inv_sigma  # whitened residual
-        if loss == "linear":
-            return float(np.vdot(r, r)), u, r, ones
-        rho, w = _robust(np.einsum("ni,ni->n", r, r), loss, loss_scale)
-        return float(rho.sum()), u, r, w
-
-    def jacobian(R: np.ndarray, u: np.ndarray) -> np.ndarray:
-        J = np.empty((n, 3, 9 + k))
-        J[:, :, :3] = u[:, _SKEW_IDX] * _SKEW_SIGN  # [u]x
-        J[:, :, 3:6] = -R.T
-        J[:, :, 6:9] = R.T @ Rt_fl
-        J[:, :, :9] *= inv_sigma[:, :, None]
-        J[:, :, 9:] = minus_Gw
-        return J.reshape(3 * n, 9 + k)
-
-    cost, u, r, w = evaluate(R, t, p_base, beta)
-    lam = 1e-6
-    it = 0
-    J = jacobian(R, u)
-    H = J.T @ J
-    converged = False
-    while it < max_iter and not converged:
-        it += 1
-        Jw = J * np.repeat(w, 3)[:, None] if loss != "linear" else J
-        Hw = Jw.T @ J if loss != "linear" else H
-        g = Jw.T @ r.ravel()
-        dH = Hw.diagonal() + 1e-12
-        while True:
-            A = Hw.copy()
-            A.flat[:: 10 + k] += lam * dH
-            dx = spd_solve(A, -g)
-            if dx is None:  # not positive definite: a rank-deficient problem
-                dx = np.linalg.lstsq(A, -g, rcond=None)[0]
-            # Gauss-Newton decrement: the cost decrease the step promises
-            if -float(g @ dx) <= tol * max(cost, 1e-12):
-                converged = True
-                break
-            R_new = R @ so3.exp(dx[:3])
-            t_new, p_new, b_new = t + dx[3:6], p_base + dx[6:9], beta + dx[9:]
-            cost_new, u_new, r_new, w_new = evaluate(R_new, t_new, p_new, b_new)
-            if cost_new <= cost:
-                R, t, p_base, beta, cost, u, r, w = R_new, t_new, p_new, b_new, cost_new, u_new, r_new, w_new
-                lam = max(lam / 10.0, 1e-12)
-                J = jacobian(R, u)
-                H = J.T @ J
-                break
-            lam = max(lam, 1e-9) * 10.0
-            if lam > 1e16:
-                converged = True
-                break
+    beta = np.zeros(k) if beta is None or len(beta) != k else _c(beta)
+    R, t, p_base, beta, cost, it, H, J, r, w = fk.levenberg_marquardt(
+        _c(p_cam), _c(R_base_flange), _c(t_base_flange), _c(sigma), G, _c(R), _c(t), _c(p_base), beta,
+        fk.LOSS_CODES[loss], float(loss_scale), int(max_iter), float(tol),
+    )  # fmt: skip
     return Solution(R, t, p_base, cost, it, H, r * sigma, w, model, beta, J, r)
 
 
@@ -211,9 +126,9 @@ def solve(
     (n <= 5) or the best solution is implausible (:func:`plausible`). The lowest cost of the
     plausible solutions wins.
     """
-    R_fl, t_fl = T_base_flange[:, :3, :3], T_base_flange[:, :3, 3]
-    if sigma is None:
-        sigma = np.full_like(p_cam, 1e-3)
+    R_fl, t_fl = _c(T_base_flange[:, :3, :3]), _c(T_base_flange[:, :3, 3])
+    p_cam = _c(p_cam)
+    sigma = np.full_like(p_cam, 1e-3) if sigma is None else _c(sigma)
 
     def from_start(R0: np.ndarray, t0: np.ndarray, p0: np.ndarray | None = None) -> Solution:
         p0 = start_target(p_cam, R_fl, t_fl, R0, t0) if p0 is None else p0

@@ -1,0 +1,276 @@
+"""The fit's compiled loops (numba, see :mod:`sofia_calibrator.kernels`): the closed-form start,
+Levenberg-Marquardt and the Gauss-Newton steps of the correction models."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .kernels import cholesky_solve, inverse, jit, matmul3, solve_vector
+from .so3 import exp_so3
+
+LOSS_CODES = {"linear": 0, "huber": 1, "cauchy": 2}
+
+
+@jit
+def linear_system(p_cam, R_base_flange, t_base_flange, w):  # type: ignore[no-untyped-def]
+    """The closed-form start's system (see :func:`sofia_calibrator.solver.linear_init`): A (3 n, 15)
+    and b (3 n,), rows weighted by sqrt(w); and, when 3 n >= 30, its solution through the normal
+    equations of the column-equilibrated system: returns (A, b, x (15,), solved)."""
+    n = p_cam.shape[0]
+    A = np.zeros((3 * n, 15))
+    b = np.empty(3 * n)
+    for i in range(n):
+        sw = math.sqrt(w[i])
+        for a in range(3):
+            row = 3 * i + a
+            for j in range(3):
+                for c in range(3):
+                    A[row, 3 * j + c] = R_base_flange[i, a, j] * p_cam[i, c] * sw
+                A[row, 9 + j] = R_base_flange[i, a, j] * sw
+            A[row, 12 + a] = -sw
+            b[row] = -t_base_flange[i, a] * sw
+    x = np.zeros(15)
+    if 3 * n < 30:
+        return A, b, x, False
+    scale = np.empty(15)
+    for c in range(15):
+        s = 0.0
+        for r in range(3 * n):
+            s += A[r, c] * A[r, c]
+        scale[c] = 1.0 / max(math.sqrt(s), 1e-300)
+    N, y = np.zeros((15, 15)), np.zeros((15, 1))
+    for r in range(3 * n):
+        for c in range(15):
+            ac = A[r, c] * scale[c]
+            y[c, 0] += ac * b[r]
+            for d in range(c + 1):
+                N[c, d] += ac * A[r, d] * scale[d]
+    X, solved = cholesky_solve(N, y)  # the lower triangle of N is read
+    for c in range(15):
+        x[c] = X[c, 0] * scale[c]
+    return A, b, x, solved
+
+
+@jit
+def _evaluate(R, t, p_base, beta, Rt_fl, q0, p_cam, G, inv_sigma, loss, c, u, r, w):  # type: ignore[no-untyped-def]
+    """Robust cost at (R, t, p_base, beta); fills u (n, 3) predicted blob (camera frame), r (n, 3)
+    whitened residual and w (n,) robust weights."""
+    n, k = p_cam.shape[0], beta.shape[0]
+    v = np.empty(3)
+    cost = 0.0
+    c2 = c * c
+    for i in range(n):
+        for a in range(3):
+            v[a] = Rt_fl[i, a, 0] * p_base[0] + Rt_fl[i, a, 1] * p_base[1] + Rt_fl[i, a, 2] * p_base[2]
+            v[a] += q0[i, a] - t[a]
+        s = 0.0
+        for a in range(3):
+            u[i, a] = v[0] * R[0, a] + v[1] * R[1, a] + v[2] * R[2, a]
+            meas = p_cam[i, a]
+            for j in range(k):
+                meas += G[i, a, j] * beta[j]
+            r[i, a] = (u[i, a] - meas) * inv_sigma[i, a]
+            s += r[i, a] * r[i, a]
+        if loss == 1:  # huber
+            rn = math.sqrt(s)
+            if rn <= c:
+                cost += s
+                w[i] = 1.0
+            else:
+                cost += 2 * c * rn - c2
+                w[i] = c / max(rn, 1e-300)
+        elif loss == 2:  # cauchy
+            cost += c2 * math.log1p(s / c2)
+            w[i] = 1.0 / (1.0 + s / c2)
+        else:
+            cost += s
+            w[i] = 1.0
+    return cost
+
+
+@jit
+def _jacobian(R, u, Rt_fl, G, inv_sigma, J):  # type: ignore[no-untyped-def]
+    """Fills J (3 n, 9 + k): whitened d residual / d (theta, t, p_base, beta)."""
+    n, k = u.shape[0], G.shape[2]
+    for i in range(n):
+        for a in range(3):
+            row, s = 3 * i + a, inv_sigma[i, a]
+            # [u]x row a, -R^T row a, (R^T Rt_fl_i) row a
+            if a == 0:
+                J[row, 0], J[row, 1], J[row, 2] = 0.0, -u[i, 2] * s, u[i, 1] * s
+            elif a == 1:
+                J[row, 0], J[row, 1], J[row, 2] = u[i, 2] * s, 0.0, -u[i, 0] * s
+            else:
+                J[row, 0], J[row, 1], J[row, 2] = -u[i, 1] * s, u[i, 0] * s, 0.0
+            for j in range(3):
+                J[row, 3 + j] = -R[j, a] * s
+                J[row, 6 + j] = (
+                    R[0, a] * Rt_fl[i, 0, j] + R[1, a] * Rt_fl[i, 1, j] + R[2, a] * Rt_fl[i, 2, j]
+                ) * s
+            for j in range(k):
+                J[row, 9 + j] = -G[i, a, j] * s
+
+
+@jit
+def _normal(J, w, r, H, g):  # type: ignore[no-untyped-def]
+    """Fills H = J^T W J and g = J^T W r (W: each sample's weight on its three rows)."""
+    P = J.shape[1]
+    for a in range(P):
+        g[a] = 0.0
+        for b in range(P):
+            H[a, b] = 0.0
+    for row in range(J.shape[0]):
+        wi = w[row // 3]
+        ri = r[row // 3, row % 3] * wi
+        for a in range(P):
+            ja = J[row, a] * wi
+            g[a] += J[row, a] * ri
+            for b in range(a + 1):
+                H[a, b] += ja * J[row, b]
+    for a in range(P):
+        for b in range(a):
+            H[b, a] = H[a, b]
+
+
+@jit
+def levenberg_marquardt(p_cam, R_fl, t_fl, sigma, G, R, t, p_base, beta, loss, c, max_iter, tol):  # type: ignore[no-untyped-def]
+    """The iteration of :func:`sofia_calibrator.solver.refine` (see there for the model); loss: a
+    code of ``LOSS_CODES``. Returns (R, t, p_base, beta, cost, n_iter, JtJ, J, whitened, weights)."""
+    n, k = p_cam.shape[0], G.shape[2]
+    P = 9 + k
+    Rt_fl = np.empty((n, 3, 3))
+    q0 = np.empty((n, 3))  # q = Rt_fl p_base + q0: blob, flange frame
+    for i in range(n):
+        for a in range(3):
+            for j in range(3):
+                Rt_fl[i, a, j] = R_fl[i, j, a]
+            q0[i, a] = -(
+                Rt_fl[i, a, 0] * t_fl[i, 0] + Rt_fl[i, a, 1] * t_fl[i, 1] + Rt_fl[i, a, 2] * t_fl[i, 2]
+            )
+    inv_sigma = np.empty((n, 3))
+    for i in range(n):
+        for a in range(3):
+            inv_sigma[i, a] = 1.0 / sigma[i, a]
+    u, r, w = np.empty((n, 3)), np.empty((n, 3)), np.empty(n)
+    u_new, r_new, w_new = np.empty((n, 3)), np.empty((n, 3)), np.empty(n)
+    J, H, Hw, A = np.empty((3 * n, P)), np.empty((P, P)), np.empty((P, P)), np.empty((P, P))
+    g, minus_g = np.empty(P), np.empty(P)
+    t, p_base, beta = t.copy(), p_base.copy(), beta.copy()  # updated in place with their trial twins
+    t_new, p_new, b_new = np.empty(3), np.empty(3), np.empty(k)
+    ones = np.ones(n)
+    cost = _evaluate(R, t, p_base, beta, Rt_fl, q0, p_cam, G, inv_sigma, loss, c, u, r, w)
+    lam = 1e-6
+    it = 0
+    _jacobian(R, u, Rt_fl, G, inv_sigma, J)
+    _normal(J, ones, r, H, g)
+    converged = False
+    while it < max_iter and not converged:
+        it += 1
+        if loss == 0:  # g = J^T r already
+            for a in range(P):
+                for b in range(P):
+                    Hw[a, b] = H[a, b]
+        else:
+            _normal(J, w, r, Hw, g)
+        for a in range(P):
+            minus_g[a] = -g[a]
+        while True:
+            for a in range(P):
+                for b in range(P):
+                    A[a, b] = Hw[a, b]
+                A[a, a] += lam * (Hw[a, a] + 1e-12)
+            dx = solve_vector(A, minus_g)
+            decrement = 0.0  # Gauss-Newton decrement: the cost decrease the step promises
+            for a in range(P):
+                decrement -= g[a] * dx[a]
+            if decrement <= tol * max(cost, 1e-12):
+                converged = True
+                break
+            R_new = matmul3(R, exp_so3(dx[0], dx[1], dx[2]))
+            for a in range(3):
+                t_new[a], p_new[a] = t[a] + dx[3 + a], p_base[a] + dx[6 + a]
+            for a in range(k):
+                b_new[a] = beta[a] + dx[9 + a]
+            cost_new = _evaluate(
+                R_new, t_new, p_new, b_new, Rt_fl, q0, p_cam, G, inv_sigma, loss, c, u_new, r_new, w_new
+            )
+            if cost_new <= cost:
+                R, cost = R_new, cost_new
+                t, t_new, p_base, p_new, beta, b_new = t_new, t, p_new, p_base, b_new, beta
+                u, u_new, r, r_new, w, w_new = u_new, u, r_new, r, w_new, w
+                lam = max(lam / 10.0, 1e-12)
+                _jacobian(R, u, Rt_fl, G, inv_sigma, J)
+                _normal(J, ones, r, H, g)
+                break
+            lam = max(lam, 1e-9) * 10.0
+            if lam > 1e16:
+                converged = True
+                break
+    return R, t, p_base, beta, cost, it, H, J, r, w
+
+
+@jit
+def gauss_newton_steps(J_ref, errors, sigma_ref, sigma, G, extra):  # type: ignore[no-untyped-def]
+    """One Gauss-Newton step of each correction model from a reference optimum (see
+    :meth:`sofia_calibrator.fit.Problem.select`). J_ref: (3 m, >= 9) whitened Jacobian under the
+    noise sigma_ref (m, 3); errors: (m, 3) residuals, metres; sigma: (m, 3) the noise now; G (m, 3,
+    K): the models' correction columns side by side, extra[b] of them for model b. Returns, per
+    model b: chi2 (nb,), dx (nb, 9) of (theta, t, p_base), beta (nb, kmax), cov9 (nb, 9, 9) and
+    beta_sigma (nb, kmax), the last two scaled by chi2 / dof. One Jacobian holds every model's
+    columns: each model's normal equations are a principal block of its J^T J."""
+    m, K, nb = errors.shape[0], G.shape[2], extra.shape[0]
+    J, r = np.empty((3 * m, 9 + K)), np.empty(3 * m)
+    for i in range(m):
+        for a in range(3):
+            row = 3 * i + a
+            f = sigma_ref[i, a] / sigma[i, a]
+            for c in range(9):
+                J[row, c] = J_ref[row, c] * f
+            for c in range(K):
+                J[row, 9 + c] = G[i, a, c] / -sigma[i, a]
+            r[row] = errors[i, a] / sigma[i, a]
+    P = 9 + K
+    M, g_all = np.empty((P, P)), np.empty(P)
+    _normal(J, np.ones(m), r.reshape(m, 3), M, g_all)
+    rr = 0.0
+    for row in range(3 * m):
+        rr += r[row] * r[row]
+    kmax = 1
+    for b in range(nb):
+        kmax = max(kmax, extra[b])
+    chi2, dx = np.empty(nb), np.empty((nb, 9))
+    beta, cov9, beta_sigma = np.zeros((nb, kmax)), np.empty((nb, 9, 9)), np.zeros((nb, kmax))
+    cols = np.empty(P, dtype=np.int64)
+    end = 9
+    for b in range(nb):
+        k = extra[b]
+        for j in range(9 + k):
+            cols[j] = j if j < 9 else end + j - 9
+        end += k
+        Mb, g = np.empty((9 + k, 9 + k)), np.empty(9 + k)
+        for i in range(9 + k):
+            g[i] = g_all[cols[i]]
+            for j in range(9 + k):
+                Mb[i, j] = M[cols[i], cols[j]]
+        C = inverse(Mb)
+        step = np.empty(9 + k)
+        c2 = rr
+        for i in range(9 + k):
+            si = 0.0
+            for j in range(9 + k):
+                si -= C[i, j] * g[j]
+            step[i] = si
+            c2 += g[i] * si
+        chi2[b] = c2
+        dof = 3 * m - 9 - k
+        s2 = c2 / dof if dof > 0 else 1.0
+        for i in range(9):
+            dx[b, i] = step[i]
+            for j in range(9):
+                cov9[b, i, j] = C[i, j] * s2
+        for j in range(k):
+            beta[b, j] = step[9 + j]
+            beta_sigma[b, j] = math.sqrt(max(C[9 + j, 9 + j] * s2, 0.0))
+    return chi2, dx, beta, cov9, beta_sigma

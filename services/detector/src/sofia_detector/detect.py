@@ -186,14 +186,17 @@ def detect(
         est = estimate_object(obj, fit.plane.rms, params.curvature, params.colour_tol)
         if est.whole_size[1] < params.min_width or est.height < params.min_object_height:
             continue  # a sliver of mixed pixels, or below the height floor
-        view = in_view(obj, est.height, params.colour_tol, depth)
+        view = None  # measured only for objects that may be kept
         if est.size[1] < params.min_width:  # a sliver of a top
+            view = in_view(obj, est.height, params.colour_tol, depth)
             if not view.reasons:
                 continue  # mixed pixels along a silhouette
             # the top out of view (a tall object cut by the image border): what is seen of it
             est = replace(est, center_xy=est.whole_xy, size=est.whole_size)
         if board.field_of_board_xy(est.center_xy[None, :])[0, 0] < 0:
             continue  # not on the field grid
+        if view is None:
+            view = in_view(obj, est.height, params.colour_tol, depth)
         if view.off_board > OFF_BOARD:
             continue  # beside the board (on the table)
         if need_white and colours is not None:

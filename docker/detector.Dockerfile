@@ -24,4 +24,6 @@ COPY config/board.yaml /etc/sofia/board.yaml
 RUN useradd --create-home --uid 10001 --user-group sofia
 USER sofia
 WORKDIR /home/sofia
+# the hull and least-area rectangle compiled into numba's cache (~/.cache/numba): no compile at start
+RUN python -c "from sofia_detector.kernels import warm_kernels; warm_kernels()"
 CMD ["sofia", "detector", "serve", "--board", "/etc/sofia/board.yaml"]

@@ -11,9 +11,8 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy import ndimage
-from scipy.spatial import ConvexHull, QhullError
 
-QUARTER = np.pi / 2
+from .kernels import hull_indices, least_area_box
 
 
 @dataclass(frozen=True)
@@ -77,29 +76,15 @@ def grid_boundary(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def hull(xy: np.ndarray) -> np.ndarray:
-    """(k, 2) float64 convex hull vertices in order (the points themselves when degenerate)."""
-    xy = np.asarray(xy, dtype=np.float64)
+    """(k, 2) float64 convex hull vertices, counter-clockwise (the points themselves when they span
+    no area)."""
+    xy = np.ascontiguousarray(xy, dtype=np.float64)
+    if not xy.flags.writeable:  # the kernels are compiled for writeable arrays
+        xy = xy.copy()
     if xy.shape[0] < 3:
         return xy
-    try:
-        return xy[ConvexHull(xy).vertices]
-    except QhullError:
-        return xy
-
-
-def rect_extents(xy: np.ndarray, yaws: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Bounds of 2-D points along rotated axes.
-
-    xy: (k, 2) float, metres. yaws: (m,) radians. Returns lo (m, 2) and hi (m, 2): min and max of
-    the projections on ``(cos, sin)`` and ``(-sin, cos)`` of each yaw.
-    """
-    c, s = np.cos(yaws), np.sin(yaws)
-    x, y = xy[None, :, 0], xy[None, :, 1]
-    u = c[:, None] * x + s[:, None] * y
-    v = -s[:, None] * x + c[:, None] * y
-    lo = np.stack([u.min(axis=1), v.min(axis=1)], axis=1)
-    hi = np.stack([u.max(axis=1), v.max(axis=1)], axis=1)
-    return lo, hi
+    idx = hull_indices(xy)
+    return xy[idx] if idx.size >= 3 else xy
 
 
 def min_area_rect(xy: np.ndarray, max_yaw: float | None = None) -> Rect:
@@ -108,16 +93,8 @@ def min_area_rect(xy: np.ndarray, max_yaw: float | None = None) -> Rect:
     xy: (k, 2) float, metres, k >= 1. max_yaw: if given, only yaws in ``[-max_yaw, max_yaw]`` are
     considered (0 when no hull edge is in range). The returned yaw is in ``[-pi/4, pi/4)``.
     """
-    v = hull(xy)
-    edges = np.concatenate([v[1:], v[:1]]) - v  # vertex i+1 - vertex i, cyclic
-    yaws = (np.arctan2(edges[:, 1], edges[:, 0]) + np.pi / 4) % QUARTER - np.pi / 4
-    if max_yaw is not None:
-        yaws = yaws[np.abs(yaws) <= max_yaw]
-    if yaws.size == 0:
-        yaws = np.zeros(1)
-    lo, hi = rect_extents(v, yaws)
-    i = int(np.argmin(np.prod(hi - lo, axis=1)))
-    return Rect(float(yaws[i]), lo[i], hi[i])
+    yaw, lo, hi = least_area_box(hull(xy), np.inf if max_yaw is None else float(max_yaw))
+    return Rect(float(yaw), lo, hi)
 
 
 def fit_outline(

@@ -39,6 +39,7 @@ from sofia_schemas.ros2.encoding import decode_flange, typed_cloud
 from .detect import detect
 from .errors import DetectorBusy, DetectorError, TransformUnavailable, UnknownFrame
 from .frames import FlangeHistory, load_correction_file, load_transform_file, parse_transform
+from .kernels import warm_kernels
 from .params import DetectorParams
 from .pick import PickParams, first_pick
 from .selection import select, split_selection
@@ -264,6 +265,7 @@ def main(config: ServiceConfig) -> int:
     """Run the detector service until SIGINT/SIGTERM."""
     stop = StopFlag()
     keys = Keys(config.robot)
+    warm_kernels()  # loaded from numba's cache before the first cloud, not during it
     with zenoh.open(zenoh_config(config.zenoh)) as session:
         publish = {
             "detections": session.declare_publisher(keys.detections),

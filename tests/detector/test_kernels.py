@@ -1,0 +1,116 @@
+"""The compiled hull and least-area rectangle against Qhull and a brute-force search."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from scipy.spatial import ConvexHull
+from sofia_detector.kernels import hull_indices, least_area_box
+from sofia_detector.outline import hull, min_area_rect
+
+
+def _clouds(seed: int, n: int) -> list[np.ndarray]:
+    """Point sets like the detector's outlines: gaussian blobs, pixel-grid quantised outlines
+    (many collinear points and repeats), thin slivers."""
+    rng = np.random.default_rng(seed)
+    blob = rng.normal(size=(n, 2)) * (0.05, 0.02)
+    grid = np.round(rng.uniform(-0.04, 0.04, size=(n, 2)) / 0.002) * 0.002
+    sliver = np.column_stack([rng.uniform(-0.1, 0.1, n), rng.normal(scale=1e-4, size=n)])
+    return [blob, grid, sliver]
+
+
+@pytest.mark.parametrize("seed", range(20))
+def test_hull_is_qhulls(seed: int) -> None:
+    for xy in _clouds(seed, 30 + 40 * seed):
+        ours = hull_indices(xy)
+        qhull = ConvexHull(xy)
+        assert {tuple(p) for p in xy[qhull.vertices]} <= {tuple(p) for p in xy[ours]}  # repeats: any index
+        # Qhull drops vertices within its round-off of collinear (pixel-grid outlines): ours lie on its hull
+        offset = xy[ours] @ qhull.equations[:, :2].T + qhull.equations[:, 2]
+        assert np.all(np.abs(offset.max(axis=1)) < 1e-12)
+        v = xy[ours]  # counter-clockwise: positive area, every turn to the left
+        e = np.roll(v, -1, axis=0) - v
+        turns = e[:, 0] * np.roll(e, -1, axis=0)[:, 1] - e[:, 1] * np.roll(e, -1, axis=0)[:, 0]
+        assert np.all(turns > 0)
+
+
+def test_degenerate_point_sets_are_kept_whole() -> None:
+    line = np.column_stack([np.linspace(0, 1, 5), np.linspace(0, 2, 5)])
+    assert hull_indices(line).size == 2  # no area: its ends
+    assert np.array_equal(hull(line), line)
+    same = np.ones((4, 2))
+    assert np.array_equal(hull(same), same)
+    rect = min_area_rect(line)
+    assert rect.size.min() == pytest.approx(0.0, abs=1e-12)
+    assert rect.size.max() == pytest.approx(np.hypot(1, 2))
+    one = min_area_rect(np.array([[0.3, -0.2]]))
+    assert np.allclose(one.center, (0.3, -0.2)) and np.allclose(one.size, 0.0)
+
+
+def _brute_area(xy: np.ndarray) -> float:
+    """Area of the least-area rectangle over 20,001 yaws in [-pi/4, pi/4]."""
+    yaws = np.linspace(-np.pi / 4, np.pi / 4, 20001)
+    c, s = np.cos(yaws)[:, None], np.sin(yaws)[:, None]
+    u, v = c * xy[:, 0] + s * xy[:, 1], -s * xy[:, 0] + c * xy[:, 1]
+    return float(np.min(np.ptp(u, axis=1) * np.ptp(v, axis=1)))
+
+
+def _edge_areas(v: np.ndarray, max_yaw: float) -> np.ndarray:
+    """Areas of the rectangles along each edge of polygon ``v`` whose folded yaw is within max_yaw."""
+    e = np.roll(v, -1, axis=0) - v
+    yaws = (np.arctan2(e[:, 1], e[:, 0]) + np.pi / 4) % (np.pi / 2) - np.pi / 4
+    yaws = yaws[np.abs(yaws) <= max_yaw]
+    c, s = np.cos(yaws)[:, None], np.sin(yaws)[:, None]
+    u, w = c * v[:, 0] + s * v[:, 1], -s * v[:, 0] + c * v[:, 1]
+    return np.ptp(u, axis=1) * np.ptp(w, axis=1)  # type: ignore[no-any-return]
+
+
+@settings(max_examples=40, deadline=None)
+@given(seed=st.integers(0, 10_000), n=st.integers(3, 300), max_yaw=st.sampled_from([np.inf, 0.3, 0.07]))
+def test_least_area_box_is_the_least_over_the_allowed_edges(seed: int, n: int, max_yaw: float) -> None:
+    xy = np.random.default_rng(seed).normal(size=(n, 2)) * (0.05, 0.02)
+    v = xy[hull_indices(xy)]
+    yaw, lo, hi = least_area_box(v, max_yaw)
+    ours = float(np.prod(hi - lo))
+    allowed = _edge_areas(v, max_yaw)
+    if allowed.size:
+        assert ours == pytest.approx(allowed.min(), rel=1e-12)
+        assert -np.pi / 4 <= yaw < np.pi / 4 and abs(yaw) <= max_yaw
+    else:
+        assert yaw == 0.0
+    if max_yaw == np.inf:  # one side lies along a hull edge: the least over every yaw
+        brute = _brute_area(xy)
+        assert brute * (1 - 1e-3) <= ours <= brute * (1 + 1e-9)
+    c, s = np.cos(yaw), np.sin(yaw)  # the bounds hold every point
+    u, w = c * xy[:, 0] + s * xy[:, 1], -s * xy[:, 0] + c * xy[:, 1]
+    assert np.allclose([u.min(), w.min()], lo) and np.allclose([u.max(), w.max()], hi)
+
+
+def test_no_edge_within_max_yaw_gives_yaw_zero() -> None:
+    c, s = np.cos(0.6), np.sin(0.6)
+    square = np.array([[0, 0], [1, 0], [1, 1], [0, 1]], dtype=float) @ np.array([[c, s], [-s, c]])
+    yaw, lo, hi = least_area_box(square, 0.1)  # both side directions fold to 0.6 rad
+    assert yaw == 0.0
+    assert np.allclose(lo, square.min(axis=0)) and np.allclose(hi, square.max(axis=0))
+    rect = min_area_rect(square)
+    assert rect.yaw == pytest.approx(0.6) and np.allclose(rect.size, 1.0)
+
+
+def test_warm_kernels_compiles_what_detection_calls() -> None:
+    """After the warm-up, a detection's calls find their compiled signature (none is compiled during
+    a detection): one signature each."""
+    from sofia_detector import kernels
+    from sofia_detector.detect import detect
+    from sofia_schemas import Board
+
+    kernels.warm_kernels()
+    entry_points = [kernels.hull_indices, kernels.least_area_box]
+    assert all(len(f.signatures) == 1 for f in entry_points)
+    board = Board.default()
+    u, v = np.meshgrid(np.linspace(-0.3, 0.3, 160), np.linspace(-0.25, 0.25, 120))
+    z = np.where((np.abs(u - 0.05) < 0.02) & (np.abs(v) < 0.03), 0.04, 0.0)
+    cloud = np.stack([u + board.center[0], v + board.center[1], z + board.surface_z], axis=-1)
+    assert detect(cloud.astype(np.float32), board).status == "ok"  # the board and the box: both rectangles
+    assert all(len(f.signatures) == 1 for f in entry_points)

@@ -164,7 +164,7 @@ def main() -> int:
     assert sub.stdout is not None and sub.stdout.readline().strip() == "ready"
     with zenoh.open(zenoh_config()) as session:
         probe = session.declare_publisher(f"{key}/ours")
-        while not probe.matching_status:  # the subscriber is known before the first frame
+        while not probe.matching_status.matching:  # the subscriber is known before the first frame
             time.sleep(0.05)
         for w, h, filters in MODES:
             r = bench_mode(session, w, h, filters, args.frames)

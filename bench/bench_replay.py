@@ -110,7 +110,7 @@ def raw_zenoh_put(key: str, clouds: list[bytes]) -> None:
             key, encoding=ENCODING_CDR_POINTCLOUD2, congestion_control=zenoh.CongestionControl.BLOCK
         )
         deadline = time.monotonic() + 20
-        while not pub.matching_status and time.monotonic() < deadline:
+        while not pub.matching_status.matching and time.monotonic() < deadline:
             time.sleep(0.05)
         for cdr in clouds:
             pub.put(cdr)

@@ -84,7 +84,7 @@ def test_a_subscriber_process_maps_the_cloud_bit_identical(board_world, make_rig
         with zenoh.open(zenoh_config()) as session:
             pub = session.declare_publisher(key)
             deadline = time.monotonic() + 60
-            while not pub.matching_status and time.monotonic() < deadline:
+            while not pub.matching_status.matching and time.monotonic() < deadline:
                 time.sleep(0.1)
             for k in range(3):
                 depth, rgb = rig.renderer.render(T)

@@ -77,6 +77,12 @@ def check_key(key: str) -> str:
     return key
 
 
+def matched(publisher: Any) -> bool:
+    """Whether a subscriber of ``publisher``'s key is known: ``matching_status.matching`` (the
+    ``MatchingStatus`` object itself is always true)."""
+    return bool(publisher.matching_status.matching)
+
+
 @dataclass
 class PlayOptions:
     """How to play. ``start_s``/``end_s`` are seconds from the first recorded message."""
@@ -185,10 +191,10 @@ class Player:
         subscriber of only some keys makes it wait the whole time, then play anyway)."""
         deadline = time.monotonic() + self.options.wait_subscribers_s
         while time.monotonic() < deadline and not stop.is_set():
-            if all(p.matching_status for p in self._publishers.values()):
+            if all(matched(p) for p in self._publishers.values()):
                 return True
             stop.wait(0.05)
-        missing = [str(p.key_expr) for p in self._publishers.values() if not p.matching_status]
+        missing = [str(p.key_expr) for p in self._publishers.values() if not matched(p)]
         if missing:
             log.warning(
                 "no subscriber on %s after %.1f s, playing anyway", missing, self.options.wait_subscribers_s

@@ -90,3 +90,41 @@ def test_an_object_seen_only_in_scattered_pixels_is_answered() -> None:
     rgb = np.where(on[..., None], np.array([25, 25, 28]), WHITE).astype(np.uint8)
     det = detect(p.astype(np.float32), BOARD, rgb=rgb)
     assert det.status == "no_object" and det.objects == []
+
+
+def _surface(height_of, half_seen: bool, seed: int = 0) -> np.ndarray:  # type: ignore[no-untyped-def]
+    """(3, n) points of a surface ``h = height_of(r)`` around (0.02, -0.01) on a 1.5 mm grid, with
+    1 mm depth noise; ``half_seen``: only the half x > 0.005 (the rest in a shadow)."""
+    u, v = np.meshgrid(np.arange(-0.05, 0.05, 0.0015), np.arange(-0.05, 0.05, 0.0015))
+    r = np.hypot(u, v)
+    h = height_of(r)
+    keep = (h > 0.002) & ((u > 0.005) if half_seen else True)
+    h = h + np.random.default_rng(seed).normal(scale=0.001, size=h.shape)
+    return np.stack([u[keep] + 0.02, v[keep] - 0.01, h[keep]]).astype(np.float32)
+
+
+@pytest.mark.parametrize("half_seen", [False, True])
+def test_a_cone_is_placed_from_its_flanks_when_its_base_is_half_unseen(half_seen: bool) -> None:
+    from sofia_detector.footprint import fit_cone_apex
+
+    b = _surface(lambda r: np.where(r < 0.03, 0.07 * (1 - r / 0.03), 0.0), half_seen)
+    cone = fit_cone_apex(b, 0.001)
+    assert cone is not None
+    apex_xy, height, base = cone
+    assert np.allclose(apex_xy, (0.02, -0.01), atol=0.0015)
+    assert height == pytest.approx(0.07, abs=0.003) and base == pytest.approx(0.03, abs=0.002)
+
+
+@pytest.mark.parametrize(
+    "height_of",
+    [
+        lambda r: np.where(r < 0.03, np.sqrt(np.maximum(0.03**2 - r**2, 0.0)), 0.0),  # a ball's cap
+        lambda r: np.where(r < 0.03, 0.06, 0.0),  # a flat top
+        lambda r: np.where(r < 0.012, 0.16, np.where(r < 0.035, 0.16 - 2 * (r - 0.012), 0.0)),  # shoulder
+    ],
+    ids=["ball", "flat", "bottle"],
+)
+def test_caps_tops_and_shoulders_are_no_cones(height_of) -> None:  # type: ignore[no-untyped-def]
+    from sofia_detector.footprint import fit_cone_apex
+
+    assert fit_cone_apex(_surface(height_of, True), 0.001) is None

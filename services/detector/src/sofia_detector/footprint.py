@@ -22,6 +22,8 @@ from .segment import ObjectPoints
 
 FIT_POINTS = 3000  # points used by the fits (every k-th of a large object)
 FLAT_K, FLAT_MIN = 3.0, 0.001  # a top whose heights spread more (noise units + metres) is no flat face
+REACH = 0.85  # a cone's farthest visible points lie at least this share of its base radius out
+NARROW_TOP = 0.3  # share of the points in the top band below which the object may be a cone
 
 
 @dataclass(frozen=True)
@@ -99,6 +101,55 @@ def fit_cone(b: np.ndarray, rect: Rect, noise: float) -> float | None:
     return float(a)
 
 
+def fit_cone_apex(b: np.ndarray, noise: float) -> tuple[np.ndarray, float, float] | None:
+    """A cone of unknown axis from its visible flanks: ``(apex_xy (2,), apex height, base radius)``
+    of ``h = a - k |xy - apex_xy|`` fitted by Gauss-Newton, or None when ``b`` is no cone.
+
+    For a cone part of whose base is out of view (its stereo shadow, depth holes, the image border)
+    the footprint rectangle is not its base, so :func:`fit_cone` cannot centre it. The flanks'
+    slope points at the apex from every side the camera sees, which places it. b: (3, n)
+    board-frame points (z = height), metres. The cone must fit better than a cap (:func:`fit_top`,
+    0.8x its residual), within three depth noise deviations plus 3 mm, with a slope above 0.5, the
+    apex no higher than twice the highest point, every point within 1.2 base radii and some as far
+    as :data:`REACH` of it (the flanks reach the board), and the points near the apex on the cone
+    (a bottle's flat cap falls below it).
+    """
+    x, y, h = (b[i].astype(np.float64) for i in range(3))
+    m = np.array([x.mean(), y.mean()])
+    u, v = x - m[0], y - m[1]  # centred for the cap fit
+    cap = fit_top(u, v, h) if h.size >= 30 else None
+    if cap is None:
+        return None
+    c0, c_u, c_v, c_r = cap[0]
+    cap_rms = float(np.sqrt(np.mean((c0 + c_u * u + c_v * v + c_r * (u * u + v * v) - h) ** 2)))
+    hi = h >= np.quantile(h, 0.95)
+    p = np.array([float(h.max()), 1.0, float(x[hi].mean()), float(y[hi].mean())])  # a, k, apex x, y
+    for _ in range(15):
+        dx, dy = x - p[2], y - p[3]
+        d = np.maximum(np.hypot(dx, dy), 1e-6)
+        res = p[0] - p[1] * d - h
+        J = np.stack([np.ones_like(d), -d, p[1] * dx / d, p[1] * dy / d], axis=1)
+        try:
+            step = np.linalg.solve(J.T @ J + 1e-9 * np.eye(4), J.T @ res)
+        except np.linalg.LinAlgError:
+            return None
+        p -= step
+        if np.abs(step[2:]).max() < 1e-5:
+            break
+    a, k = float(p[0]), float(p[1])
+    d = np.hypot(x - p[2], y - p[3])
+    rms = float(np.sqrt(np.mean((a - k * d - h) ** 2)))
+    if not np.all(np.isfinite(p)) or k < 0.5 or rms > 3 * noise + 0.003 or rms > 0.8 * cap_rms:
+        return None
+    base = a / k  # the flanks reach the board: a bottle's shoulder stops far short of its "base"
+    if a > 2.0 * float(h.max()) or not REACH * base <= float(d.max()) <= 1.2 * base:
+        return None
+    tip = d < 0.3 * base  # a cone's tip lies on it; a bottle's flat cap falls below it
+    if np.count_nonzero(tip) >= 5 and float(np.median(h[tip] - a + k * d[tip])) < -(2 * noise + 0.003):
+        return None
+    return p[2:].copy(), a, base
+
+
 def _spread(h: np.ndarray) -> float:
     """Robust standard deviation (1.4826 median absolute deviation) of (n,) heights, metres."""
     return float(1.4826 * median(np.abs(h - median(h))))
@@ -158,8 +209,12 @@ def estimate_object(
     cone = fit_cone(b, rect, noise)
     # a flat top's points lie within the depth noise of its height; a tip's spread over the band
     flat = top.shape[1] < 3 or _spread(top[2]) < FLAT_K * noise + FLAT_MIN
+    narrow = np.count_nonzero(inner) < NARROW_TOP * h.size  # a tip, or a top cut short by holes
+    apex = None if cone is not None or (flat and not narrow) else fit_cone_apex(b, noise)
     if cone is not None:  # a cone: its apex is the height, its base the full footprint
         curved, height, center_xy, size = True, cone, rect.center, rect.size
+    elif apex is not None:  # a cone part of whose base is unseen: its apex, and its base around it
+        curved, height, center_xy, size = True, apex[1], apex[0], np.full(2, 2 * apex[2])
     elif fit is not None and fit[0][3] < -curvature and (fit[0][3] < -4 * fit[1] or not flat):
         coef = fit[0]
         apex = mean_top - coef[1:3] / (2 * coef[3])

@@ -65,6 +65,17 @@ def test_round_top_with_a_third_unseen_keeps_its_centre() -> None:
     assert abs(o.extents[0] - 2 * r) < 0.004 and abs(o.extents[2] - h) < 0.002
 
 
+def test_round_top_two_thirds_unseen_keeps_its_centre() -> None:
+    """A puck of which a strip 16 mm wide is seen (the rest in missing depth, as in the second
+    imager's invalid band): its rim against the board spans about 100 degrees, enough for the
+    circle."""
+    r, h = 0.031, 0.03
+    cloud = _scene(lambda du, dv: np.where(np.hypot(du, dv) <= r, h, 0.0), hole=(-0.049, 0.0, 0.064))
+    o = _one(cloud)
+    assert np.hypot(*(np.array(o.center[:2]) - TRUE_XY)) < 0.003
+    assert abs(o.extents[0] - 2 * r) < 0.005
+
+
 def test_round_top_in_full_view_keeps_its_rectangle_centre() -> None:
     cloud = _scene(lambda du, dv: np.where(np.hypot(du, dv) <= 0.03, 0.05, 0.0))
     assert np.hypot(*(np.array(_one(cloud).center[:2]) - TRUE_XY)) < 0.001

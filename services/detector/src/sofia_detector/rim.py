@@ -5,7 +5,7 @@ top runs out of view (the image border, the band the second imager does not see,
 missing depth on a dark or glossy top), the rectangle shrinks to the seen part and its centre
 moves. A rim pixel that borders the board or the object's own side (finite depth, lower than the
 top) is a true edge of the top wherever the rest of it is; a circle through those pixels gives the
-centre of a round top from an arc of 140 degrees or more. A rectangle's rim lies closer to its
+centre of a round top from an arc of 70 degrees or more. A rectangle's rim lies closer to its
 rectangle than to any circle, which tells boxes from cylinders.
 """
 
@@ -19,7 +19,7 @@ from .pixels import grow, median, where
 from .segment import ObjectPoints
 
 MIN_RIM = 12  # fewest rim pixels for a circle
-MAX_GAP = np.deg2rad(220.0)  # widest angle around the centre without rim pixels
+MAX_GAP = np.deg2rad(290.0)  # widest angle around the centre without rim pixels
 CAP_SHARE = 0.3  # a flat top of less than this share of the object's footprint is a cap on a body
 WHOLE_TOP = 0.003  # a top whose rectangle matches its circle this well is seen whole, metres
 RMS_SPACINGS = 0.8  # largest rms radial residual, in pixel spacings (plus the depth noise)

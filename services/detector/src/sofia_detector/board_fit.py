@@ -14,6 +14,8 @@ from .plane import PlaneFit, T_cfg_plane, change_frame, fit_plane, planar_transf
 MIN_BOARD_POINTS = 50
 PLANE_FIT_POINTS = 2500  # plenty: the plane offset's standard error is ~0.05 mm
 OUTLINE_CELL = 0.008  # occupancy cell of the outline of unorganized clouds, metres
+EDGE_REACH_PX = 2  # grid cells from the board top to the surface below its edge (stereo shadow)
+EDGE_REACH_CELLS = 5  # occupancy cells: also the strip of table the board's side hides from the camera
 
 
 @dataclass(frozen=True)
@@ -34,29 +36,71 @@ class BoardFit:
     m_coarse: np.ndarray
 
 
-def _outline_points(m: np.ndarray, band: np.ndarray, half: np.ndarray) -> np.ndarray:
-    """(k, 2) plane-frame points on the outline of the largest connected patch of ``band``.
+def _drops(low: np.ndarray, r: np.ndarray, c: np.ndarray, reach: int, steps_xy: np.ndarray) -> np.ndarray:
+    """(k, 2) plane-frame direction (not normalised) from each outline cell ``(r, c)`` (k,) of a
+    grid towards the cells of ``low`` (h, w) bool within ``reach`` cells of it along the grid's
+    row and column (0 where none): where the board top drops to something below it. steps_xy:
+    (2, 2) plane-frame step of one grid row (column 0) and one grid column (column 1), metres."""
+    h, w = low.shape
+    padded = np.zeros((h + 2 * reach, w + 2 * reach), dtype=bool)
+    padded[reach : reach + h, reach : reach + w] = low
+    d = np.arange(1, reach + 1)
+    dr = np.concatenate([d, -d, 0 * d, 0 * d])
+    dc = np.concatenate([0 * d, 0 * d, d, -d])
+    hit = padded[r[:, None] + (dr + reach), c[:, None] + (dc + reach)].astype(np.float64)  # (k, 4 reach)
+    return hit @ np.stack([dr, dc], axis=1) @ steps_xy.T  # type: ignore[no-any-return]
+
+
+def _grid_steps(xy: np.ndarray, r: np.ndarray, c: np.ndarray) -> np.ndarray:
+    """(2, 2) plane-frame step of one grid row (column 0) and one grid column (column 1), metres:
+    the affine fit of the plane-frame points ``xy`` (k, 2) to their grid cells ``(r, c)`` (k,)
+    (the identity when they lie on a line)."""
+    A = np.column_stack((r, c, np.ones(r.size), xy))
+    G = A[:, :3].T @ A  # (3, 5) normal equations
+    try:
+        return np.linalg.solve(G[:, :3], G[:, 3:])[:2].T  # type: ignore[no-any-return]
+    except np.linalg.LinAlgError:
+        return np.eye(2)
+
+
+def _outline_points(
+    m: np.ndarray, band: np.ndarray, low: np.ndarray, half: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Points on the outline of the largest connected patch of ``band``, and where the board top
+    drops beside them.
 
     Organized ``m`` (3, h, w): connectivity on the pixel grid (the caller passes every second
-    cell of the coarse grid). Unorganized (3, n): on an occupancy grid of :data:`OUTLINE_CELL`
-    cells over ``[-half, half]``.
+    cell of the coarse grid); ``band`` and ``low`` (h, w) bool. Unorganized (3, n): on an occupancy
+    grid of :data:`OUTLINE_CELL` cells over ``[-half, half]``; ``band`` and ``low`` (n,) bool.
+    ``low``: points below the board top. Returns (k, 2) plane-frame points and (k, 2) the
+    direction from each to what lies below the board within :data:`EDGE_REACH_PX` grid cells
+    (:data:`EDGE_REACH_CELLS` occupancy cells, which also span the table the board's side hides),
+    0 where nothing does: there the board top is cut short by missing depth, the image border or
+    something standing in front, not by its edge.
     """
     if m.ndim == 3:
         comp = largest_component(band)
         if not comp.any():
-            return np.empty((0, 2))
+            return np.empty((0, 2)), np.empty((0, 2))
         r, c = grid_boundary(comp)
-        return np.stack([m[0, r, c], m[1, r, c]], axis=1)
-    xy = m[:2, band].T
+        xy = np.stack([m[0, r, c], m[1, r, c]], axis=1)
+        return xy, _drops(low, r, c, EDGE_REACH_PX, _grid_steps(xy, r, c))
     shape = tuple(np.ceil(2 * half / OUTLINE_CELL).astype(int) + 1)
-    idx = np.floor((xy + half) / OUTLINE_CELL).astype(np.intp)
-    occ = np.zeros(shape, dtype=bool)
-    occ[idx[:, 0], idx[:, 1]] = True
-    comp = largest_component(occ)
+
+    def occupancy(sel: np.ndarray) -> np.ndarray:
+        idx = np.floor((m[:2, sel].T + half) / OUTLINE_CELL).astype(np.intp)
+        occ = np.zeros(shape, dtype=bool)
+        occ[idx[:, 0], idx[:, 1]] = True
+        return occ
+
+    comp = largest_component(occupancy(band))
     if not comp.any():
-        return np.empty((0, 2))
+        return np.empty((0, 2)), np.empty((0, 2))
     r, c = grid_boundary(comp)
-    return (np.stack([r, c], axis=1) + 0.5) * OUTLINE_CELL - half
+    with np.errstate(invalid="ignore"):
+        low = low & (np.abs(m[0]) < half[0]) & (np.abs(m[1]) < half[1])
+    xy = (np.stack([r, c], axis=1) + 0.5) * OUTLINE_CELL - half
+    return xy, _drops(occupancy(low), r, c, EDGE_REACH_CELLS, OUTLINE_CELL * np.eye(2))
 
 
 def fit_board(coarse_base: np.ndarray, board: Board, params: DetectorParams) -> BoardFit | None:
@@ -89,10 +133,11 @@ def fit_board(coarse_base: np.ndarray, board: Board, params: DetectorParams) -> 
         band = (
             (np.abs(sub[2]) < params.outline_band) & (np.abs(sub[0]) < half[0]) & (np.abs(sub[1]) < half[1])
         )
-    outline_xy = _outline_points(sub, band, half)
+        low = sub[2] < -params.outline_band
+    outline_xy, drop_xy = _outline_points(sub, band, low, half)
     outline = None
     T_plane_board = np.eye(4)
     if outline_xy.shape[0] >= 8:
-        outline = fit_outline(outline_xy, board.extent, params.max_board_yaw, params.max_rim)
+        outline = fit_outline(outline_xy, board.extent, params.max_board_yaw, params.max_rim, drop_xy)
         T_plane_board = planar_transform(*outline.center, outline.yaw)
     return BoardFit(T_base_plane @ T_plane_board, T_base_plane, plane, outline, m)

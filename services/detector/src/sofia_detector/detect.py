@@ -24,9 +24,13 @@ from .visibility import InView, in_view
 
 DEFAULT_PARAMS = DetectorParams()
 HOLES_OK = 0.05  # share of an object's pixels without depth that costs no confidence
-TRUNCATED_CONFIDENCE = 0.45
-OFF_BOARD = 0.5  # an object most of whose surroundings lie below the board stands beside it  # the centre of a truncated object's visible part is not trusted
+TRUNCATED_CONFIDENCE = 0.45  # the centre of a truncated object's visible part is not trusted
+OFF_BOARD = 0.5  # an object most of whose surroundings lie below the board stands beside it
 Colour = tuple[str | None, tuple[int, int, int] | None]
+OUTLINE_CUT = (
+    "board outline not fully seen: along a cut axis the board is placed from its one seen edge, "
+    "or at its configured position when neither edge is seen"
+)
 
 
 def as_cloud(points: object) -> np.ndarray:
@@ -220,5 +224,5 @@ def detect(
         board_center=tuple(float(v) for v in T[:3, 3]),  # type: ignore[arg-type]
         board_yaw=float(np.arctan2(T[1, 0], T[0, 0])),
         timings_ms={k: round(v, 3) for k, v in timings.items()},
-        detail="" if seen else "board outline not fully seen: its configured position is used",
+        detail="" if seen else OUTLINE_CUT,
     )

@@ -1,8 +1,10 @@
 """Rectangles around 2-D point sets, and where the board lies in its plane.
 
 The board top is the largest connected patch of points at height ~0. Its outline gives the board
-centre (midpoint of opposite edges, whatever the width of the rim around the fields) and its yaw
-(the rectangle of least area: one of its sides lies along an edge of the convex hull).
+yaw (the rectangle of least area: one of its sides lies along an edge of the convex hull) and its
+centre: the midpoint of opposite edges (whatever the width of the rim around the fields) where
+both are the board's edges, a drop to the table beside them; half the fields and a rim inside the
+one edge seen where the other side is cut short (missing depth, the image border, the fingers).
 """
 
 from __future__ import annotations
@@ -98,21 +100,56 @@ def min_area_rect(xy: np.ndarray, max_yaw: float | None = None) -> Rect:
 
 
 def fit_outline(
-    boundary_xy: np.ndarray, field_extent: tuple[float, float], max_yaw: float, max_rim: float
+    boundary_xy: np.ndarray,
+    field_extent: tuple[float, float],
+    max_yaw: float,
+    max_rim: float,
+    drop_xy: np.ndarray | None = None,
+    side_band: float = 0.015,
+    edge_share: float = 0.3,
 ) -> Outline:
     """The board rectangle from its outline points.
 
     boundary_xy: (k, 2) float, plane frame, metres: points on (or including) the outline.
-    field_extent: size of the field grid along the board x and y, metres. An axis whose measured
-    size is not within ``[extent - 1 cm, extent + 2 max_rim]`` (board partly out of view, or merged
-    with something at board height) is not trusted: its centre stays at the configured 0.
+    field_extent: size of the field grid along the board x and y, metres. drop_xy: (k, 2)
+    direction (any length) from each point to what lies below the board beside it, 0 where nothing
+    does (the board top cut short by missing depth, the image border or something in front of it);
+    None: the whole outline is the board's edge. A side of the rectangle is an edge of the board
+    when at least ``edge_share`` of the points within ``side_band`` metres of it drop outwards
+    (within 60 degrees); the rest may be hidden by the fingers or objects standing on the edge.
+
+    Per axis: with both sides edges and a size within ``[extent - 1 cm, extent + 2 max_rim]``, the
+    centre is their midpoint (the axis is complete). With one side an edge, the board ends there:
+    the centre lies half the fields and a rim inside it, the rim measured on the other axis when
+    that one is complete, else ``max_rim / 2``. With neither, the midpoint when the size is
+    within the range above, else the configured 0. A size beyond ``extent + 2 max_rim`` (the board
+    top merged with something at board height) keeps the configured 0 as well.
     """
     rect = min_area_rect(boundary_xy, max_yaw)
-    size = rect.size
-    ext = np.asarray(field_extent)
-    ok = (size >= ext - 0.01) & (size <= ext + 2 * max_rim)
-    mid = np.where(ok, (rect.lo + rect.hi) / 2, 0.0)
-    center = rect.R @ mid
+    R = rect.R
+    u = R.T @ np.asarray(boundary_xy, dtype=np.float64).T  # (2, k) along the rectangle's axes
+    beyond = np.concatenate([-u, u])  # (4, k) outwards of the sides x lo, y lo, x hi, y hi
+    near = beyond >= beyond.max(axis=1, keepdims=True) - side_band
+    out = near
+    if drop_xy is not None:  # drops outwards of the side, within 60 degrees of its normal
+        d = R.T @ np.asarray(drop_xy, dtype=np.float64).T
+        out = near & (np.concatenate([-d, d]) > 0.5 * np.hypot(d[0], d[1]))
+    n_near, n_out = np.count_nonzero(near, axis=1), np.count_nonzero(out, axis=1)
+    edge = (n_out >= edge_share * np.maximum(n_near, 1)).tolist()
+    lo, hi, ext = rect.lo.tolist(), rect.hi.tolist(), field_extent
+    size = [hi[a] - lo[a] for a in (0, 1)]
+    fits = [size[a] <= ext[a] + 2 * max_rim for a in (0, 1)]
+    plausible = [fits[a] and size[a] >= ext[a] - 0.01 for a in (0, 1)]
+    ok = [plausible[a] and edge[a] and edge[a + 2] for a in (0, 1)]
+    mid = [0.0, 0.0]
+    for a in (0, 1):
+        if plausible[a] and edge[a] == edge[a + 2]:  # both sides edges, or neither
+            mid[a] = (lo[a] + hi[a]) / 2
+        elif fits[a] and edge[a] != edge[a + 2]:  # one side cut short: the board ends at the other
+            b = 1 - a
+            rim = min(max((size[b] - ext[b]) / 2, 0.0), max_rim) if ok[b] else max_rim / 2
+            mid[a] = hi[a] - ext[a] / 2 - rim if edge[a + 2] else lo[a] + ext[a] / 2 + rim
+    center = R @ mid
     return Outline(
         (float(center[0]), float(center[1])), rect.yaw, (float(size[0]), float(size[1])),
         (bool(ok[0]), bool(ok[1])),

@@ -162,3 +162,39 @@ def test_missing_depth_of_the_tops_colour_bordered_by_the_board_is_not_the_top()
     o = detect(cloud, BOARD, rgb=rgb).objects[0]
     assert abs(o.extents[0] - 2 * a) < 0.003 and abs(o.extents[1] - 2 * a) < 0.003, o.extents
     assert np.hypot(*(np.array(o.center[:2]) - TRUE_XY)) < 0.0015
+
+
+def _islands(n: int, height: float) -> tuple[np.ndarray, np.ndarray]:
+    """The black box with missing depth over two fifths of its top and over the board beside it
+    (the top is seen from dv = -4 mm on), except for ``n`` discs of 6 mm radius inside it at
+    ``height``: (cloud, colours)."""
+    full = _scene(_black_box)
+    rgb = np.where(full[..., 2:] > 0.02, np.array([25, 25, 28]), np.array([235, 235, 230])).astype(np.uint8)
+    holed = _scene(_black_box, hole=(0.0, -0.07, 0.07))
+    du = np.arange(-0.26, 0.26, STEP)[:, None] - FIELD[0]
+    dv = np.arange(-0.34, 0.34, STEP)[None, :] - FIELD[1]
+    for k in range(n):
+        island = np.hypot(du - (0.012 - 0.024 * k) * (n - 1), dv + 0.018) < 0.006
+        holed[island] = full[island]
+        holed[island, 2] = height
+    return holed, rgb
+
+
+@pytest.mark.parametrize("islands", [1, 2])
+def test_pieces_of_a_dark_top_that_missing_depth_cuts_off_are_the_top(islands: int) -> None:
+    """Islands of the top inside the missing patch (too small to count as part of its face) border
+    it at the top's height: the patch is still the top, and the box keeps its centre."""
+    holed, rgb = _islands(islands, 0.04)
+    before = detect(holed, BOARD).objects[0]  # without colours: the seen part
+    assert np.hypot(*(np.array(before.center[:2]) - TRUE_XY)) > 0.008
+    o = detect(holed, BOARD, rgb=rgb).objects[0]
+    assert np.hypot(*(np.array(o.center[:2]) - TRUE_XY)) < 0.0015, o.center
+    assert abs(o.extents[0] - 0.06) < 0.003 and abs(o.extents[1] - 0.06) < 0.003, o.extents
+
+
+def test_a_missing_patch_bordered_by_something_lower_than_the_top_is_not_the_top() -> None:
+    """The same islands 20 mm below the top (a step, a side): the patch is not on the top's plane,
+    so the footprint stays the seen part of the top."""
+    holed, rgb = _islands(2, 0.02)
+    o = detect(holed, BOARD, rgb=rgb).objects[0]
+    assert o.extents[1] < 0.045, o.extents

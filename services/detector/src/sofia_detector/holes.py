@@ -4,12 +4,13 @@ A stereo camera returns no depth on dark or glossy patches, and none where the s
 view is blocked (the fingers' shadow). The colour camera still sees those pixels. Where they have
 the top's colour and join the top on the pixel grid, they may be the top: the top is a plane, so
 the pixel grid maps onto it by a homography, fitted on the top's pixels with depth, which places
-the others. A patch of such pixels is taken only when what borders it is the top itself or more
-missing depth (a hole inside the top, a shadow or an invalid band that also covers the board
-beside the object): a patch that the board with depth borders is a side face of the top's colour
-that the camera saw too obliquely (it is not on the top's plane). Nothing is done where the board
-around the object has the top's colour (the board's missing depth, the object's stereo shadow,
-could not be told apart from the top).
+the others. A patch of such pixels is taken only when what borders it is the top itself (also
+pieces of it at its height that the missing depth cut off from the rest) or more missing depth (a
+hole inside the top, a shadow or an invalid band that also covers the board beside the object): a
+patch that the board with depth borders is a side face of the top's colour that the camera saw
+too obliquely (it is not on the top's plane). Nothing is done where the board around the object
+has the top's colour (the board's missing depth, the object's stereo shadow, could not be told
+apart from the top).
 """
 
 from __future__ import annotations
@@ -59,8 +60,9 @@ def pixel_to_plane(rows: np.ndarray, cols: np.ndarray, xy: np.ndarray) -> np.nda
 def unseen_top(obj: ObjectPoints, face: np.ndarray, tol: float) -> np.ndarray:
     """(k, 2) board-frame xy (metres) of the missing-depth pixels of the top's colour that join the
     top ``face`` ((n,) bool over the object's points) on the pixel grid and are not bordered by the
-    board with depth; (0, 2) when there are none, no colours, or the board around has the top's
-    colour. tol: colour distance (:func:`.depth_clean.colour_distance` of :func:`.depth_clean.chroma`)."""
+    board with depth nor by depth below the top's heights; (0, 2) when there are none, no colours,
+    or the board around has the top's colour.
+    tol: colour distance (:func:`.depth_clean.colour_distance` of :func:`.depth_clean.chroma`)."""
     none = np.zeros((0, 2))
     if obj.rgb is None or obj.rows is None or obj.cols is None or obj.window is None:
         return none
@@ -94,15 +96,20 @@ def unseen_top(obj: ObjectPoints, face: np.ndarray, tol: float) -> np.ndarray:
     joined[0] = False
     filled = same & joined[labels]
     # each patch of them: what borders it must be the top or more missing depth (not the board with
-    # depth: a side face; not the object's other pixels with depth: a cone's flank or a side)
+    # depth: a side face; not pixels with depth below the top's height: a cone's flank or a side).
+    # Pixels at the top's height are the top even when not in ``face`` (pieces of it that missing
+    # depth cut off from the rest)
     parts, n = ndimage.label(filled, structure=EIGHT)
     near = ndimage.maximum_filter(parts, size=2 * BORDER_PX + 1)  # the patch a pixel borders
+    face_h = obj.b[2, face]
+    lo, mid = float(face_h.min()), float(median(face_h))
     with np.errstate(invalid="ignore"):
         border = (near > 0) & ~filled
         raised = border & (h > RAISED)
         flat = border & (np.abs(h) < RAISED)
+        level = (h >= lo) & (h <= 2 * mid - lo)  # the top's band of heights
     total = np.bincount(near[border], minlength=n + 1)
-    off = np.bincount(near[raised & ~grid], minlength=n + 1)
+    off = np.bincount(near[raised & ~grid & ~level], minlength=n + 1)
     on_board = np.bincount(near[flat], minlength=n + 1)
     good = (off <= OFF_TOP * np.bincount(near[raised], minlength=n + 1)) & (on_board <= BOARD_SEEN * total)
     good[0] = False

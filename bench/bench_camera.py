@@ -51,6 +51,7 @@ from sofia_camera.software import SoftwareCamera
 from sofia_replay.preload import shm_enabled
 from sofia_replay.synth.camera import look_at
 from sofia_runtime import zenoh_config
+from sofia_runtime.client import matched
 from sofia_schemas import pointcloud
 from sofia_schemas.transforms import invert
 
@@ -164,7 +165,7 @@ def main() -> int:
     assert sub.stdout is not None and sub.stdout.readline().strip() == "ready"
     with zenoh.open(zenoh_config()) as session:
         probe = session.declare_publisher(f"{key}/ours")
-        while not probe.matching_status.matching:  # the subscriber is known before the first frame
+        while not matched(probe):  # the subscriber is known before the first frame
             time.sleep(0.05)
         for w, h, filters in MODES:
             r = bench_mode(session, w, h, filters, args.frames)

@@ -102,6 +102,7 @@ def collect(proc: subprocess.Popen[str]) -> list[tuple[float, int, int]]:
 def raw_zenoh_put(key: str, clouds: list[bytes]) -> None:
     """Baseline: one Zenoh publisher, clouds from memory, as fast as possible (reliable, BLOCK)."""
     import zenoh
+    from sofia_runtime.client import matched
     from sofia_runtime.zenoh_config import open_session
     from sofia_schemas.keys import ENCODING_CDR_POINTCLOUD2
 
@@ -110,7 +111,7 @@ def raw_zenoh_put(key: str, clouds: list[bytes]) -> None:
             key, encoding=ENCODING_CDR_POINTCLOUD2, congestion_control=zenoh.CongestionControl.BLOCK
         )
         deadline = time.monotonic() + 20
-        while not pub.matching_status.matching and time.monotonic() < deadline:
+        while not matched(pub) and time.monotonic() < deadline:
             time.sleep(0.05)
         for cdr in clouds:
             pub.put(cdr)

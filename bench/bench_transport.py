@@ -62,12 +62,13 @@ def subscriber(key: str, mode: str, n: int, out: Path) -> None:
 
 def publish(key: str, mode: str, n: int, rate: float) -> None:
     import zenoh
+    from sofia_runtime.client import matched
 
     data = bytearray(np.random.default_rng(0).integers(0, 256, SIZE, dtype=np.uint8).tobytes())
     with zenoh.open(session_config(mode)) as session:
         pub = session.declare_publisher(key, congestion_control=zenoh.CongestionControl.BLOCK)
         deadline = time.monotonic() + 10
-        while not pub.matching_status.matching and time.monotonic() < deadline:
+        while not matched(pub) and time.monotonic() < deadline:
             time.sleep(0.05)
         time.sleep(0.5)
         provider = None

@@ -24,6 +24,7 @@ from sofia_camera.intrinsics import Intrinsics
 from sofia_camera.shm import CloudBuffers
 from sofia_replay.preload import shm_enabled
 from sofia_runtime import zenoh_config
+from sofia_runtime.client import matched
 
 from .conftest import flange_above
 
@@ -84,7 +85,7 @@ def test_a_subscriber_process_maps_the_cloud_bit_identical(board_world, make_rig
         with zenoh.open(zenoh_config()) as session:
             pub = session.declare_publisher(key)
             deadline = time.monotonic() + 60
-            while not pub.matching_status.matching and time.monotonic() < deadline:
+            while not matched(pub) and time.monotonic() < deadline:
                 time.sleep(0.1)
             for k in range(3):
                 depth, rgb = rig.renderer.render(T)

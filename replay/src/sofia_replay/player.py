@@ -23,13 +23,9 @@ from pathlib import Path
 from typing import Any
 
 import zenoh
+from sofia_runtime.client import matched
 from sofia_runtime.service import StatusEndpoint, StopFlag
-from sofia_schemas.keys import (
-    ENCODING_CDR_POINT,
-    ENCODING_CDR_POINTCLOUD2,
-    ENCODING_CDR_TRANSFORM,
-    Keys,
-)
+from sofia_schemas.keys import ENCODING_CDR_POINT, ENCODING_CDR_POINTCLOUD2, ENCODING_CDR_TRANSFORM, Keys
 from sofia_schemas.messages import ServiceStatus, now_ns
 from sofia_schemas.rosmsg import POINT_STAMPED, POINTCLOUD2, TRANSFORM_STAMPED
 
@@ -75,12 +71,6 @@ def check_key(key: str) -> str:
     if "*" in key or "$" in key:
         raise BadMappingError(key, "a publication key must not contain wildcards")
     return key
-
-
-def matched(publisher: Any) -> bool:
-    """Whether a subscriber of ``publisher``'s key is known: ``matching_status.matching`` (the
-    ``MatchingStatus`` object itself is always true)."""
-    return bool(publisher.matching_status.matching)
 
 
 @dataclass

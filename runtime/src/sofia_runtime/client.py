@@ -12,7 +12,7 @@ import logging
 import threading
 import time
 from collections.abc import Callable
-from typing import TypeVar
+from typing import Any, TypeVar
 
 import zenoh
 from pydantic import BaseModel
@@ -21,6 +21,14 @@ from sofia_schemas.messages import ErrorReply
 RETRY_S = 0.1
 M = TypeVar("M", bound=BaseModel)
 log = logging.getLogger(__name__)
+
+
+def matched(publisher: zenoh.Publisher) -> bool:
+    """Whether a subscriber of ``publisher``'s key is known (and connected): its
+    ``matching_status.matching``. The ``MatchingStatus`` object itself is always true (and
+    zenoh-python's type stubs call it a bool)."""
+    status: Any = publisher.matching_status
+    return bool(status.matching)
 
 
 class QueryError(RuntimeError):

@@ -187,7 +187,7 @@ def detect(
     for obj in found:
         if obj.b.shape[1] < params.min_points:
             continue
-        est = estimate_object(obj, fit.plane.rms, params.curvature, params.colour_tol)
+        est = estimate_object(obj, fit.plane.rms, params.curvature, params.colour_tol, params.min_width)
         if est.whole_size[1] < params.min_width or est.height < params.min_object_height:
             continue  # a sliver of mixed pixels, or below the height floor
         view = None  # measured only for objects that may be kept

@@ -14,15 +14,16 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import ndimage
 
+from .caps import fit_cone, fit_cone_apex, fit_top
 from .holes import unseen_top
-from .outline import Rect, min_area_rect
+from .outline import min_area_rect
+from .params import DetectorParams
 from .pixels import median
-from .rim import round_footprint
+from .rim import round_footprint, round_side
 from .segment import ObjectPoints
 
 FIT_POINTS = 3000  # points used by the fits (every k-th of a large object)
 FLAT_K, FLAT_MIN = 3.0, 0.001  # a top whose heights spread more (noise units + metres) is no flat face
-REACH = 0.85  # a cone's farthest visible points lie at least this share of its base radius out
 NARROW_TOP = 0.3  # share of the points in the top band below which the object may be a cone
 
 
@@ -34,7 +35,8 @@ class ObjectEstimate:
     length >= width. yaw: direction of the length axis. centroid: (3,) mean of the points.
     curved: the top was fitted as a cap. whole_xy, whole_size: centre (2,) and (length, width) of
     the rectangle around every point of the object, not only its top: what is left of an object
-    whose top is out of view (a tall object cut by the image border shows its side).
+    whose top is out of view (a tall object cut by the image border shows its side); for an
+    upright round side, the circle through it (:func:`round_side`).
     """
 
     center_xy: np.ndarray
@@ -46,108 +48,6 @@ class ObjectEstimate:
     n_points: int
     whole_xy: np.ndarray = field(default_factory=lambda: np.zeros(2))
     whole_size: tuple[float, float] = (0.0, 0.0)
-
-
-def fit_top(x: np.ndarray, y: np.ndarray, h: np.ndarray) -> tuple[np.ndarray, float] | None:
-    """Least-squares ``h = a + b x + c y + d (x^2 + y^2)`` and the standard error of ``d``.
-
-    x, y: (n,) float, board frame, metres, centred near the top. h: (n,) heights, metres.
-    Returns ((a, b, c, d), se_d), or None when the system is singular or has too few points.
-    """
-    if h.size < 8:
-        return None
-    A = np.stack([np.ones_like(x), x, y, x * x + y * y]).astype(np.float64)
-    try:
-        M_inv = np.linalg.inv(A @ A.T)
-    except np.linalg.LinAlgError:
-        return None
-    coef = M_inv @ (A @ h.astype(np.float64))
-    rss = float(np.sum((h - coef @ A) ** 2))
-    se_d = np.sqrt(max(rss, 0.0) / (h.size - 4) * M_inv[3, 3])
-    return (coef, float(se_d)) if np.all(np.isfinite(coef)) and np.isfinite(se_d) else None
-
-
-def _line(x: np.ndarray, y: np.ndarray) -> tuple[float, float, float]:
-    """Least-squares ``y = a + k x`` of (n,) float64 arrays: (a, k, rms residual)."""
-    xm, ym = float(x.mean()), float(y.mean())
-    dx = x - xm
-    k = float(dx @ (y - ym)) / max(float(dx @ dx), 1e-12)
-    a = ym - k * xm
-    return a, k, float(np.sqrt(np.mean((y - a - k * x) ** 2)))
-
-
-def fit_cone(b: np.ndarray, rect: Rect, noise: float) -> float | None:
-    """Apex height of a cone standing in footprint ``rect``, or None when ``b`` is no cone.
-
-    b: (3, n) board-frame points (z = height), metres. The heights within 80 % of the footprint's
-    inscribed radius must fall linearly with the distance from its centre (``h = a - k r``,
-    ``k`` > 0.5) within three depth noise deviations plus 3 mm, better than a cap; the apex is ``a``, which the camera's
-    sampling of the tip (mixed pixels, holes) usually misses.
-    """
-    radius = 0.5 * float(min(rect.size))
-    c = rect.center
-    r = np.hypot(b[0] - c[0], b[1] - c[1])
-    sel = r < 0.8 * radius
-    if np.count_nonzero(sel) < 20 or radius < 0.01:
-        return None
-    rs, hs = r[sel].astype(np.float64), b[2, sel].astype(np.float64)
-    a, k, rms = _line(rs, hs)
-    _, _, rms_cap = _line(rs * rs, hs)  # a ball's cap, for comparison
-    if k > -0.5 or rms > 3 * noise + 0.003 or rms > 0.8 * rms_cap or a > 2.0 * float(hs.max()):
-        return None
-    tip = rs < 0.3 * radius  # a cone's tip lies on the line; a bottle's flat cap falls below it
-    if np.count_nonzero(tip) >= 5 and float(np.median(hs[tip] - a - k * rs[tip])) < -(2 * noise + 0.003):
-        return None
-    return float(a)
-
-
-def fit_cone_apex(b: np.ndarray, noise: float) -> tuple[np.ndarray, float, float] | None:
-    """A cone of unknown axis from its visible flanks: ``(apex_xy (2,), apex height, base radius)``
-    of ``h = a - k |xy - apex_xy|`` fitted by Gauss-Newton, or None when ``b`` is no cone.
-
-    For a cone part of whose base is out of view (its stereo shadow, depth holes, the image border)
-    the footprint rectangle is not its base, so :func:`fit_cone` cannot centre it. The flanks'
-    slope points at the apex from every side the camera sees, which places it. b: (3, n)
-    board-frame points (z = height), metres. The cone must fit better than a cap (:func:`fit_top`,
-    0.8x its residual), within three depth noise deviations plus 3 mm, with a slope above 0.5, the
-    apex no higher than twice the highest point, every point within 1.2 base radii and some as far
-    as :data:`REACH` of it (the flanks reach the board), and the points near the apex on the cone
-    (a bottle's flat cap falls below it).
-    """
-    x, y, h = (b[i].astype(np.float64) for i in range(3))
-    m = np.array([x.mean(), y.mean()])
-    u, v = x - m[0], y - m[1]  # centred for the cap fit
-    cap = fit_top(u, v, h) if h.size >= 30 else None
-    if cap is None:
-        return None
-    c0, c_u, c_v, c_r = cap[0]
-    cap_rms = float(np.sqrt(np.mean((c0 + c_u * u + c_v * v + c_r * (u * u + v * v) - h) ** 2)))
-    hi = h >= np.quantile(h, 0.95)
-    p = np.array([float(h.max()), 1.0, float(x[hi].mean()), float(y[hi].mean())])  # a, k, apex x, y
-    for _ in range(15):
-        dx, dy = x - p[2], y - p[3]
-        d = np.maximum(np.hypot(dx, dy), 1e-6)
-        res = p[0] - p[1] * d - h
-        J = np.stack([np.ones_like(d), -d, p[1] * dx / d, p[1] * dy / d], axis=1)
-        try:
-            step = np.linalg.solve(J.T @ J + 1e-9 * np.eye(4), J.T @ res)
-        except np.linalg.LinAlgError:
-            return None
-        p -= step
-        if np.abs(step[2:]).max() < 1e-5:
-            break
-    a, k = float(p[0]), float(p[1])
-    d = np.hypot(x - p[2], y - p[3])
-    rms = float(np.sqrt(np.mean((a - k * d - h) ** 2)))
-    if not np.all(np.isfinite(p)) or k < 0.5 or rms > 3 * noise + 0.003 or rms > 0.8 * cap_rms:
-        return None
-    base = a / k  # the flanks reach the board: a bottle's shoulder stops far short of its "base"
-    if a > 2.0 * float(h.max()) or not REACH * base <= float(d.max()) <= 1.2 * base:
-        return None
-    tip = d < 0.3 * base  # a cone's tip lies on it; a bottle's flat cap falls below it
-    if np.count_nonzero(tip) >= 5 and float(np.median(h[tip] - a + k * d[tip])) < -(2 * noise + 0.003):
-        return None
-    return p[2:].copy(), a, base
 
 
 def _spread(h: np.ndarray) -> float:
@@ -173,7 +73,11 @@ def _solid(obj: ObjectPoints, subset: np.ndarray) -> np.ndarray:
 
 
 def estimate_object(
-    obj: ObjectPoints, noise: float, curvature: float, colour_tol: float = 0.0
+    obj: ObjectPoints,
+    noise: float,
+    curvature: float,
+    colour_tol: float = 0.0,
+    min_width: float = DetectorParams.min_width,
 ) -> ObjectEstimate:
     """Footprint, height and centre of one object.
 
@@ -187,6 +91,8 @@ def estimate_object(
     height: the top and the upper edge of the visible sides, which project onto the footprint,
     and not the mixed pixels that a depth camera leaves along silhouettes (they lie outside it).
     colour_tol > 0: missing-depth pixels of a flat top's colour are part of it (:mod:`.holes`).
+    min_width: a top narrower than this (metres) is a sliver of it; an upright round side then gives
+    ``whole_xy`` and ``whole_size`` (:func:`round_side`).
     """
     b_all = obj.b
     n = b_all.shape[1]
@@ -238,6 +144,11 @@ def estimate_object(
             center_xy, size = circle[0], np.full(2, 2 * circle[1])
         if not flat:  # a tip too sparse to fit: the cap's apex, else the highest points
             height = max(tip, h_hi) if tip is not None else h_hi
+    whole_xy, whole_size = whole.center, (float(whole.size.max()), float(whole.size.min()))
+    if min(size) < min_width:  # a sliver of a top: the object's side is what is seen of it
+        side = round_side(b, noise, h_hi)
+        if side is not None:
+            whole_xy, whole_size = side[0], (2 * side[1], 2 * side[1])
     if size[0] < size[1]:
         size = size[::-1]
         yaw += np.pi / 2
@@ -246,6 +157,5 @@ def estimate_object(
     return ObjectEstimate(
         center_xy=np.asarray(center_xy, dtype=np.float64), height=height,
         size=(float(size[0]), float(size[1])), yaw=yaw, centroid=centroid, curved=curved, n_points=n,
-        whole_xy=np.asarray(whole.center, dtype=np.float64),
-        whole_size=(float(whole.size.max()), float(whole.size.min())),
+        whole_xy=np.asarray(whole_xy, dtype=np.float64), whole_size=whole_size,
     )  # fmt: skip

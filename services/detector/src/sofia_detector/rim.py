@@ -6,7 +6,9 @@ missing depth on a dark or glossy top), the rectangle shrinks to the seen part a
 moves. A rim pixel that borders the board or the object's own side (finite depth, lower than the
 top) is a true edge of the top wherever the rest of it is; a circle through those pixels gives the
 centre of a round top from an arc of 70 degrees or more. A rectangle's rim lies closer to its
-rectangle than to any circle, which tells boxes from cylinders.
+rectangle than to any circle, which tells boxes from cylinders. When the top itself is out of view
+(a tall bottle cut by the image border), the upright round side below it gives the axis
+(:func:`round_side`).
 """
 
 from __future__ import annotations
@@ -23,6 +25,10 @@ MAX_GAP = np.deg2rad(290.0)  # widest angle around the centre without rim pixels
 CAP_SHARE = 0.3  # a flat top of less than this share of the object's footprint is a cap on a body
 WHOLE_TOP = 0.003  # a top whose rectangle matches its circle this well is seen whole, metres
 RMS_SPACINGS = 0.8  # largest rms radial residual, in pixel spacings (plus the depth noise)
+SIDE_BAND = (0.2, 0.7)  # share of the highest point between which a round side is fitted
+SIDE_RMS = 0.001  # largest rms radial residual of a round side, metres (plus the depth noise)
+SIDE_ARC = np.deg2rad(100.0)  # narrowest arc of a round side around its axis
+SIDE_KEEP = 0.8  # least share of the side's points on its circle
 
 
 def rim_xy(obj: ObjectPoints, face: np.ndarray, top: float, drop: float) -> tuple[np.ndarray, float]:
@@ -144,3 +150,36 @@ def round_footprint(
     if circle is None or np.all(np.abs(rect.size - 2 * circle[1]) < WHOLE_TOP):
         return None
     return circle
+
+
+def round_side(b: np.ndarray, noise: float, h_hi: float) -> tuple[np.ndarray, float] | None:
+    """The axis of an upright round side (a cylinder's, a bottle's body): ``(centre_xy (2,),
+    radius)`` of the circle through the side's points, or None when the side is not round.
+
+    A vertical side projects onto the footprint's outline, so a circle through the xy of the
+    points between :data:`SIDE_BAND` of the highest one ``h_hi`` (clear of the base's mixed
+    pixels and of a bottle's shoulder) centres the object even when its top is out of view. b:
+    (3, n) board-frame points (z = height), metres. The circle is refitted on the points within
+    two depth noise deviations plus 2 mm of it; at least :data:`SIDE_KEEP` of them, within
+    :data:`SIDE_RMS` plus the noise rms, around an arc of at least :data:`SIDE_ARC` (a flat
+    face fits a circle only as an arc too short to place it).
+    """
+    h = b[2]
+    sel = (h > SIDE_BAND[0] * h_hi) & (h < SIDE_BAND[1] * h_hi)
+    if np.count_nonzero(sel) < 30:
+        return None
+    xy = b[:2, sel].T.astype(np.float64)
+    keep = np.ones(xy.shape[0], dtype=bool)
+    for _ in range(3):
+        c, r, _ = fit_circle(xy[keep])
+        if not np.isfinite(r) or r <= 0:
+            return None
+        keep = np.abs(np.hypot(*(xy - c).T) - r) < 2 * noise + 0.002
+        if np.count_nonzero(keep) < SIDE_KEEP * xy.shape[0]:
+            return None
+    c, r, rms = fit_circle(xy[keep])
+    ang = np.sort(np.arctan2(xy[keep, 1] - c[1], xy[keep, 0] - c[0]))
+    arc = 2 * np.pi - float(np.diff(np.append(ang, ang[0] + 2 * np.pi)).max())
+    if rms > SIDE_RMS + noise or arc < SIDE_ARC:
+        return None
+    return c, r

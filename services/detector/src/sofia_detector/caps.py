@@ -1,0 +1,119 @@
+"""Curved tops: the cap ``h = a + b x + c y + d (x^2 + y^2)`` (a ball, a rounded top) and the
+cone ``h = a - k r`` (its apex, which the camera's sampling of the tip usually misses), from the
+object's board-frame points (z = height, metres).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .outline import Rect
+
+REACH = 0.85  # a cone's farthest visible points lie at least this share of its base radius out
+CONE_NOISE = 2.0  # a cone's flanks fitted within this many depth noise deviations are a cone
+
+
+def fit_top(x: np.ndarray, y: np.ndarray, h: np.ndarray) -> tuple[np.ndarray, float] | None:
+    """Least-squares ``h = a + b x + c y + d (x^2 + y^2)`` and the standard error of ``d``.
+
+    x, y: (n,) float, board frame, metres, centred near the top. h: (n,) heights, metres.
+    Returns ((a, b, c, d), se_d), or None when the system is singular or has too few points.
+    """
+    if h.size < 8:
+        return None
+    A = np.stack([np.ones_like(x), x, y, x * x + y * y]).astype(np.float64)
+    try:
+        M_inv = np.linalg.inv(A @ A.T)
+    except np.linalg.LinAlgError:
+        return None
+    coef = M_inv @ (A @ h.astype(np.float64))
+    rss = float(np.sum((h - coef @ A) ** 2))
+    se_d = np.sqrt(max(rss, 0.0) / (h.size - 4) * M_inv[3, 3])
+    return (coef, float(se_d)) if np.all(np.isfinite(coef)) and np.isfinite(se_d) else None
+
+
+def _line(x: np.ndarray, y: np.ndarray) -> tuple[float, float, float]:
+    """Least-squares ``y = a + k x`` of (n,) float64 arrays: (a, k, rms residual)."""
+    xm, ym = float(x.mean()), float(y.mean())
+    dx = x - xm
+    k = float(dx @ (y - ym)) / max(float(dx @ dx), 1e-12)
+    a = ym - k * xm
+    return a, k, float(np.sqrt(np.mean((y - a - k * x) ** 2)))
+
+
+def fit_cone(b: np.ndarray, rect: Rect, noise: float) -> float | None:
+    """Apex height of a cone standing in footprint ``rect``, or None when ``b`` is no cone.
+
+    b: (3, n) board-frame points (z = height), metres. The heights within 80 % of the footprint's
+    inscribed radius must fall linearly with the distance from its centre (``h = a - k r``,
+    ``k`` > 0.5) within three depth noise deviations plus 3 mm, better than a cap; the apex is ``a``, which the camera's
+    sampling of the tip (mixed pixels, holes) usually misses.
+    """
+    radius = 0.5 * float(min(rect.size))
+    c = rect.center
+    r = np.hypot(b[0] - c[0], b[1] - c[1])
+    sel = r < 0.8 * radius
+    if np.count_nonzero(sel) < 20 or radius < 0.01:
+        return None
+    rs, hs = r[sel].astype(np.float64), b[2, sel].astype(np.float64)
+    a, k, rms = _line(rs, hs)
+    _, _, rms_cap = _line(rs * rs, hs)  # a ball's cap, for comparison
+    if k > -0.5 or rms > 3 * noise + 0.003 or rms > 0.8 * rms_cap or a > 2.0 * float(hs.max()):
+        return None
+    tip = rs < 0.3 * radius  # a cone's tip lies on the line; a bottle's flat cap falls below it
+    if np.count_nonzero(tip) >= 5 and float(np.median(hs[tip] - a - k * rs[tip])) < -(2 * noise + 0.003):
+        return None
+    return float(a)
+
+
+def fit_cone_apex(b: np.ndarray, noise: float) -> tuple[np.ndarray, float, float] | None:
+    """A cone of unknown axis from its visible flanks: ``(apex_xy (2,), apex height, base radius)``
+    of ``h = a - k |xy - apex_xy|`` fitted by Gauss-Newton, or None when ``b`` is no cone.
+
+    For a cone part of whose base is out of view (its stereo shadow, depth holes, the image border)
+    the footprint rectangle is not its base, so :func:`fit_cone` cannot centre it. The flanks'
+    slope points at the apex from every side the camera sees, which places it. b: (3, n)
+    board-frame points (z = height), metres. The cone must fit better than a cap (:func:`fit_top`,
+    0.8x its residual) or to the depth noise (:data:`CONE_NOISE` deviations: a cap bent over one
+    flank of a cone, all that is seen of it beside the invalid band, fits it nearly as well),
+    within three depth noise deviations plus 3 mm, with a slope above 0.5, the apex no higher than
+    twice the highest point, every point within 1.2 base radii and some as far as :data:`REACH`
+    of it (the flanks reach the board), and the points near the apex on the cone (a bottle's flat
+    cap falls below it).
+    """
+    x, y, h = (b[i].astype(np.float64) for i in range(3))
+    m = np.array([x.mean(), y.mean()])
+    u, v = x - m[0], y - m[1]  # centred for the cap fit
+    cap = fit_top(u, v, h) if h.size >= 30 else None
+    if cap is None:
+        return None
+    c0, c_u, c_v, c_r = cap[0]
+    cap_rms = float(np.sqrt(np.mean((c0 + c_u * u + c_v * v + c_r * (u * u + v * v) - h) ** 2)))
+    hi = h >= np.quantile(h, 0.95)
+    p = np.array([float(h.max()), 1.0, float(x[hi].mean()), float(y[hi].mean())])  # a, k, apex x, y
+    for _ in range(15):
+        dx, dy = x - p[2], y - p[3]
+        d = np.maximum(np.hypot(dx, dy), 1e-6)
+        res = p[0] - p[1] * d - h
+        J = np.stack([np.ones_like(d), -d, p[1] * dx / d, p[1] * dy / d], axis=1)
+        try:
+            step = np.linalg.solve(J.T @ J + 1e-9 * np.eye(4), J.T @ res)
+        except np.linalg.LinAlgError:
+            return None
+        p -= step
+        if np.abs(step[2:]).max() < 1e-5:
+            break
+    a, k = float(p[0]), float(p[1])
+    d = np.hypot(x - p[2], y - p[3])
+    rms = float(np.sqrt(np.mean((a - k * d - h) ** 2)))
+    if not np.all(np.isfinite(p)) or k < 0.5 or rms > 3 * noise + 0.003:
+        return None
+    if rms > 0.8 * cap_rms and rms > CONE_NOISE * noise:
+        return None
+    base = a / k  # the flanks reach the board: a bottle's shoulder stops far short of its "base"
+    if a > 2.0 * float(h.max()) or not REACH * base <= float(d.max()) <= 1.2 * base:
+        return None
+    tip = d < 0.3 * base  # a cone's tip lies on it; a bottle's flat cap falls below it
+    if np.count_nonzero(tip) >= 5 and float(np.median(h[tip] - a + k * d[tip])) < -(2 * noise + 0.003):
+        return None
+    return p[2:].copy(), a, base

@@ -106,11 +106,27 @@ def test_warm_kernels_compiles_what_detection_calls() -> None:
     from sofia_schemas import Board
 
     kernels.warm_kernels()
-    entry_points = [kernels.hull_indices, kernels.least_area_box]
+    entry_points = [kernels.hull_indices, kernels.least_area_box, kernels.cone_gauss_newton]
     assert all(len(f.signatures) == 1 for f in entry_points)
     board = Board.default()
     u, v = np.meshgrid(np.linspace(-0.3, 0.3, 160), np.linspace(-0.25, 0.25, 120))
     z = np.where((np.abs(u - 0.05) < 0.02) & (np.abs(v) < 0.03), 0.04, 0.0)
+    r = np.hypot(u + 0.1, v)  # and a cone, whose apex is fitted
+    z = np.where(r < 0.03, 0.06 * (1 - r / 0.03), z)
     cloud = np.stack([u + board.center[0], v + board.center[1], z + board.surface_z], axis=-1)
     assert detect(cloud.astype(np.float32), board).status == "ok"  # the board and the box: both rectangles
     assert all(len(f.signatures) == 1 for f in entry_points)
+
+
+def test_cone_gauss_newton_finds_the_apex_from_one_flank() -> None:
+    from sofia_detector.kernels import cone_gauss_newton
+
+    rng = np.random.default_rng(3)
+    x, y = rng.uniform(0.0, 0.03, 400), rng.uniform(-0.03, 0.03, 400)  # the flank at x >= 0 only
+    r = np.hypot(x - 0.004, y + 0.002)
+    keep = r < 0.03
+    x, y, r = x[keep], y[keep], r[keep]
+    h = 0.07 - 0.07 / 0.03 * r + rng.normal(scale=0.001, size=r.size)
+    p = cone_gauss_newton(x, y, h, np.array([h.max(), 1.0, x.mean(), y.mean()]), 30, 1e-7)
+    assert np.allclose(p[2:], (0.004, -0.002), atol=1e-3)
+    assert p[0] == pytest.approx(0.07, abs=2e-3) and p[1] == pytest.approx(0.07 / 0.03, rel=0.05)

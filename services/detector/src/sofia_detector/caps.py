@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .kernels import cone_gauss_newton
 from .outline import Rect
 
 REACH = 0.85  # a cone's farthest visible points lie at least this share of its base radius out
@@ -91,18 +92,7 @@ def fit_cone_apex(b: np.ndarray, noise: float) -> tuple[np.ndarray, float, float
     cap_rms = float(np.sqrt(np.mean((c0 + c_u * u + c_v * v + c_r * (u * u + v * v) - h) ** 2)))
     hi = h >= np.quantile(h, 0.95)
     p = np.array([float(h.max()), 1.0, float(x[hi].mean()), float(y[hi].mean())])  # a, k, apex x, y
-    for _ in range(15):
-        dx, dy = x - p[2], y - p[3]
-        d = np.maximum(np.hypot(dx, dy), 1e-6)
-        res = p[0] - p[1] * d - h
-        J = np.stack([np.ones_like(d), -d, p[1] * dx / d, p[1] * dy / d], axis=1)
-        try:
-            step = np.linalg.solve(J.T @ J + 1e-9 * np.eye(4), J.T @ res)
-        except np.linalg.LinAlgError:
-            return None
-        p -= step
-        if np.abs(step[2:]).max() < 1e-5:
-            break
+    p = cone_gauss_newton(x, y, h, p, 15, 1e-5)
     a, k = float(p[0]), float(p[1])
     d = np.hypot(x - p[2], y - p[3])
     rms = float(np.sqrt(np.mean((a - k * d - h) ** 2)))

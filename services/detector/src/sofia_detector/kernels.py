@@ -1,4 +1,5 @@
-"""Compiled building blocks (numba): the convex hull and the rectangle of least area of 2-D points.
+"""Compiled building blocks (numba): the convex hull and the rectangle of least area of 2-D points,
+and the Gauss-Newton fit of a cone's apex.
 
 Every object's footprint and the board's outline are rectangles of least area around a few hundred
 outline points. Qhull (through SciPy) answered these in 80 us on average but now and then in
@@ -90,6 +91,68 @@ def least_area_box(v: np.ndarray, max_yaw: float) -> tuple[float, np.ndarray, np
     return yaw_best, lo_best, hi_best
 
 
+@jit
+def _solve4(A: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """x of ``A x = b`` for a (4, 4) symmetric positive definite A (Cholesky); NaN when it is not."""
+    L = np.zeros((4, 4))
+    for i in range(4):
+        for j in range(i + 1):
+            s = A[i, j]
+            for m in range(j):
+                s -= L[i, m] * L[j, m]
+            if i == j:
+                if s <= 0.0:
+                    return np.full(4, np.nan)
+                L[i, i] = math.sqrt(s)
+            else:
+                L[i, j] = s / L[j, j]
+    y = np.empty(4)
+    for i in range(4):
+        s = b[i]
+        for m in range(i):
+            s -= L[i, m] * y[m]
+        y[i] = s / L[i, i]
+    x = np.empty(4)
+    for i in range(3, -1, -1):
+        s = y[i]
+        for m in range(i + 1, 4):
+            s -= L[m, i] * x[m]
+        x[i] = s / L[i, i]
+    return x
+
+
+@jit
+def cone_gauss_newton(
+    x: np.ndarray, y: np.ndarray, h: np.ndarray, p: np.ndarray, iters: int, tol: float
+) -> np.ndarray:
+    """Least-squares ``h = a - k |(x, y) - (cx, cy)|`` by Gauss-Newton from ``p`` = (a, k, cx, cy)
+    (4,) float64; x, y, h (n,) float64, metres. Stops after ``iters`` steps or once the apex moves
+    less than ``tol`` metres; returns the parameters (4,) (NaN when a step cannot be solved)."""
+    p = p.copy()
+    for _ in range(iters):
+        JtJ = np.zeros((4, 4))
+        Jtr = np.zeros(4)
+        J = np.empty(4)
+        for i in range(h.size):
+            dx, dy = x[i] - p[2], y[i] - p[3]
+            d = max(math.sqrt(dx * dx + dy * dy), 1e-6)
+            r = p[0] - p[1] * d - h[i]
+            J[0], J[1], J[2], J[3] = 1.0, -d, p[1] * dx / d, p[1] * dy / d
+            for a in range(4):
+                Jtr[a] += J[a] * r
+                for b in range(a + 1):
+                    JtJ[a, b] += J[a] * J[b]
+        for a in range(4):
+            JtJ[a, a] += 1e-9
+            for b in range(a):
+                JtJ[b, a] = JtJ[a, b]
+        step = _solve4(JtJ, Jtr)
+        p -= step
+        if not np.isfinite(step).all() or max(abs(step[2]), abs(step[3])) < tol:
+            break
+    return p
+
+
 def warm_kernels() -> None:
     """Compile every kernel (or load it from numba's cache), so that the first detection does not
     wait for it."""
@@ -97,3 +160,7 @@ def warm_kernels() -> None:
     v = xy[hull_indices(xy)]
     least_area_box(v, np.inf)
     least_area_box(v, 0.1)
+    r = np.hypot(xy[:, 0], xy[:, 1])
+    cone_gauss_newton(
+        xy[:, 0].copy(), xy[:, 1].copy(), 0.05 - 2 * r, np.array([0.05, 1.0, 0.1, 0.1]), 15, 1e-5
+    )

@@ -3,11 +3,12 @@ and the Gauss-Newton fit of a cone's apex.
 
 Every object's footprint and the board's outline are rectangles of least area around a few hundred
 outline points. Qhull (through SciPy) answered these in 80 us on average but now and then in
-several milliseconds (its per-call set-up and memory), which made it the detector's largest cost;
-Andrew's monotone chain and the rotating-calipers search over the hull's edges run here in a few
-microseconds. They are compiled for C-contiguous float64 arrays, cached beside the sources
-(``cache=True``; ``~/.cache/numba`` when that is read-only) and compiled ahead of the first
-detection by :func:`warm_kernels` (``scripts/install.sh``, the detector's image).
+several milliseconds; Andrew's monotone chain and the rotating-calipers search over the hull's
+edges run here in a few microseconds. A cone's apex is fitted by Gauss-Newton over a few thousand
+points, whose per-step numpy calls cost more than their arithmetic. They are compiled for
+C-contiguous float64 arrays, cached beside the sources (``cache=True``; ``~/.cache/numba`` when
+that is read-only) and compiled ahead of the first detection by :func:`warm_kernels`
+(``scripts/install.sh``, the detector's image).
 """
 
 from __future__ import annotations

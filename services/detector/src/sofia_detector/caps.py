@@ -47,8 +47,8 @@ def fit_cone(b: np.ndarray, rect: Rect, noise: float) -> float | None:
 
     b: (3, n) board-frame points (z = height), metres. The heights within 80 % of the footprint's
     inscribed radius must fall linearly with the distance from its centre (``h = a - k r``,
-    ``k`` > 0.5) within three depth noise deviations plus 3 mm, better than a cap; the apex is ``a``, which the camera's
-    sampling of the tip (mixed pixels, holes) usually misses.
+    ``k`` > 0.5) within three depth noise deviations plus 3 mm, better than a cap; the apex is
+    ``a``, which the camera's sampling of the tip (mixed pixels, holes) usually misses.
     """
     radius = 0.5 * float(min(rect.size))
     c = rect.center

@@ -90,6 +90,9 @@ def estimate_object(
     it. The footprint of a flat top is the rectangle of the points within 3 sigma of the top
     height: the top and the upper edge of the visible sides, which project onto the footprint,
     and not the mixed pixels that a depth camera leaves along silhouettes (they lie outside it).
+    A cone is centred on its apex: on the footprint's centre when the whole base is seen
+    (:func:`.caps.fit_cone`), else where its flanks point (:func:`.caps.fit_cone_apex`, tried when
+    the top is no flat face or a narrow band: a tip).
     colour_tol > 0: missing-depth pixels of a flat top's colour are part of it (:mod:`.holes`).
     min_width: a top narrower than this (metres) is a sliver of it; an upright round side then gives
     ``whole_xy`` and ``whole_size`` (:func:`round_side`).
@@ -116,11 +119,12 @@ def estimate_object(
     # a flat top's points lie within the depth noise of its height; a tip's spread over the band
     flat = top.shape[1] < 3 or _spread(top[2]) < FLAT_K * noise + FLAT_MIN
     narrow = np.count_nonzero(inner) < NARROW_TOP * h.size  # a tip, or a top cut short by holes
-    apex = None if cone is not None or (flat and not narrow) else fit_cone_apex(b, noise)
+    seen_cone = None if cone is not None or (flat and not narrow) else fit_cone_apex(b, noise)
     if cone is not None:  # a cone: its apex is the height, its base the full footprint
         curved, height, center_xy, size = True, cone, rect.center, rect.size
-    elif apex is not None:  # a cone part of whose base is unseen: its apex, and its base around it
-        curved, height, center_xy, size = True, apex[1], apex[0], np.full(2, 2 * apex[2])
+    elif seen_cone is not None:  # a cone part of whose base is unseen: its apex, its base around it
+        curved, height, center_xy = True, seen_cone[1], seen_cone[0]
+        size = np.full(2, 2 * seen_cone[2])
     elif fit is not None and fit[0][3] < -curvature and (fit[0][3] < -4 * fit[1] or not flat):
         coef = fit[0]
         apex = mean_top - coef[1:3] / (2 * coef[3])

@@ -51,3 +51,25 @@ def test_query_without_queryable_ends_empty_at_the_timeout() -> None:
         t0 = time.monotonic()
         assert query(session, f"sofia/t{uuid.uuid4().hex[:8]}/nobody", timeout=1.0) == []
         assert 0.8 < time.monotonic() - t0 < 5.0
+
+
+def test_a_stopped_fetch_leaves_the_session_free_to_close() -> None:
+    """``fetch_latest`` keeps asking (for up to 30 s) while nobody answers; once its stop is set it
+    gives up within a retry, so the service can join it and close its session: a session cannot
+    close while another thread is inside one of its calls ("Already borrowed", then an abort)."""
+    import threading
+
+    from sofia_runtime.client import fetch_latest
+
+    stop = threading.Event()
+    session = zenoh.open(zenoh_config())
+    got: list[zenoh.Sample] = []
+    thread = fetch_latest(session, f"sofia/t{uuid.uuid4().hex[:8]}/nobody", got.append, stop)
+    time.sleep(0.5)
+    assert thread.is_alive()  # still asking
+    t0 = time.monotonic()
+    stop.set()
+    thread.join(timeout=5.0)
+    assert not thread.is_alive() and time.monotonic() - t0 < 1.0
+    session.close()  # nobody inside the session's calls any more
+    assert session.is_closed() and got == []

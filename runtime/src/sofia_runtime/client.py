@@ -41,16 +41,17 @@ def query(
     payload: bytes | str | None = None,
     timeout: float = 10.0,
     encoding: str | None = None,
+    stop: threading.Event | None = None,
 ) -> list[zenoh.Reply]:
     """Every reply to a query on ``key`` (at most ``timeout`` seconds for discovery and replies
-    together); an empty list when no queryable answered."""
+    together); an empty list when no queryable answered, or once ``stop`` is set."""
     deadline = time.monotonic() + timeout
+    stop = stop or threading.Event()
     while True:
         remaining = deadline - time.monotonic()
         replies = list(session.get(key, payload=payload, encoding=encoding, timeout=max(0.1, remaining)))
-        if replies or time.monotonic() + RETRY_S >= deadline:
+        if replies or time.monotonic() + RETRY_S >= deadline or stop.wait(RETRY_S):
             return replies
-        time.sleep(RETRY_S)
 
 
 def ask(session: zenoh.Session, key: str, model: type[M], payload: bytes | str | None = None,
@@ -70,15 +71,22 @@ def ask(session: zenoh.Session, key: str, model: type[M], payload: bytes | str |
 
 
 def fetch_latest(
-    session: zenoh.Session, key: str, on_sample: Callable[[zenoh.Sample], None], timeout: float = 30.0
+    session: zenoh.Session,
+    key: str,
+    on_sample: Callable[[zenoh.Sample], None],
+    stop: threading.Event,
+    timeout: float = 30.0,
 ) -> threading.Thread:
     """Ask the queryable of a put + queryable ``key`` (e.g. the calibrator's result) once, in the
     background, for the value published before this process subscribed; each ok reply goes to
-    ``on_sample``, as a sample from the subscriber would. Returns the (daemon) thread."""
+    ``on_sample``, as a sample from the subscriber would. Returns the (daemon) thread, which gives
+    up once ``stop`` is set: join it before the session closes (a session cannot close while
+    another thread is inside one of its calls: zenoh-python raises "Already borrowed", the session
+    stays open and the process aborts as it exits)."""
 
     def run() -> None:
         try:
-            for reply in query(session, key, timeout=timeout):
+            for reply in query(session, key, timeout=timeout, stop=stop):
                 if reply.ok is not None:
                     on_sample(reply.ok)
         except (zenoh.ZError, RuntimeError) as e:  # the session closed first (or while it was closing)

@@ -281,7 +281,7 @@ def main(config: ServiceConfig) -> int:
             StatusEndpoint(session, keys.status("detector"), service.status),
         ]
         worker = run_worker("detector", service.run)
-        fetch_latest(session, keys.calibration_result, service.on_calibration)  # a result from before
+        fetching = fetch_latest(session, keys.calibration_result, service.on_calibration, stop.event)
         log.info(
             "detector ready: clouds on %s and %s, detections on %s, queries on %s (transform: %s)",
             keys.points, keys.camera_points, keys.detections, keys.detect, service.transform_name,
@@ -292,6 +292,7 @@ def main(config: ServiceConfig) -> int:
         log.info("detector stopping")
         service.work.close()
         worker.join(timeout=5.0)
+        fetching.join(timeout=5.0)  # out of the session's calls before it closes
         for d in declared:
             d.undeclare()
     return 0

@@ -90,6 +90,12 @@ def fit_circle(xy: np.ndarray) -> tuple[np.ndarray, float, float]:
     return c + m, r, rms
 
 
+def widest_gap(xy: np.ndarray, center: np.ndarray) -> float:
+    """Widest angle (radians) around ``center`` (2,) without any of the points xy (k, 2), k >= 1."""
+    ang = np.sort(np.arctan2(xy[:, 1] - center[1], xy[:, 0] - center[0]))
+    return float(np.diff(np.append(ang, ang[0] + 2 * np.pi)).max())
+
+
 def _rect_rms(xy: np.ndarray, rect: Rect) -> float:
     """Rms distance of xy (k, 2) to the nearest side of ``rect``."""
     uv = xy @ rect.R  # in the rectangle's axes
@@ -123,9 +129,7 @@ def round_top(
         return None
     if float(rect.size.max()) > 2 * r + 2 * pixel + 0.002 or rms > 0.5 * _rect_rms(xy, rect):
         return None  # the seen top does not fit in the circle, or it is a rectangle
-    ang = np.sort(np.arctan2(xy[:, 1] - center[1], xy[:, 0] - center[0]))
-    gaps = np.diff(np.concatenate([ang, ang[:1] + 2 * np.pi]))
-    if float(gaps.max()) > MAX_GAP:
+    if widest_gap(xy, center) > MAX_GAP:
         return None
     return center, r
 
@@ -178,8 +182,6 @@ def round_side(b: np.ndarray, noise: float, h_hi: float) -> tuple[np.ndarray, fl
         if np.count_nonzero(keep) < SIDE_KEEP * xy.shape[0]:
             return None
     c, r, rms = fit_circle(xy[keep])
-    ang = np.sort(np.arctan2(xy[keep, 1] - c[1], xy[keep, 0] - c[0]))
-    arc = 2 * np.pi - float(np.diff(np.append(ang, ang[0] + 2 * np.pi)).max())
-    if rms > SIDE_RMS + noise or arc < SIDE_ARC:
+    if rms > SIDE_RMS + noise or 2 * np.pi - widest_gap(xy[keep], c) < SIDE_ARC:
         return None
     return c, r

@@ -20,6 +20,7 @@ from .params import DetectorParams
 from .pixels import median
 from .plane import coords
 from .segment import Levels, ObjectPoints, organized_objects, unorganized_objects
+from .silhouette import silhouette
 from .visibility import InView, in_view
 
 DEFAULT_PARAMS = DetectorParams()
@@ -136,6 +137,45 @@ def _colour(
     return name_colour(median(pix[seen] / lit[seen, None]), white, params.palette)
 
 
+def _from_silhouettes(
+    slivers: list[tuple[ObjectEstimate, ObjectPoints]],
+    cloud: np.ndarray,
+    rgb: np.ndarray,
+    T_base_board: np.ndarray,
+    placed: list[ObjectEstimate],
+    board: Board,
+    params: DetectorParams,
+) -> list[tuple[ObjectEstimate, ObjectPoints, InView]]:
+    """Objects of which depth saw only slivers, placed from their colour silhouettes
+    (:mod:`.silhouette`): the highest sliver first (its height is the top's); a sliver inside a
+    silhouette already placed, or a footprint on an object already found, adds nothing."""
+    out: list[tuple[ObjectEstimate, ObjectPoints, InView]] = []
+    taken = np.zeros(cloud.shape[:2], dtype=bool)
+    for est, obj in sorted(slivers, key=lambda s: -s[0].height):
+        assert obj.rows is not None and obj.cols is not None
+        if taken[obj.rows + obj.origin[0], obj.cols + obj.origin[1]].any():
+            continue
+        sil = silhouette(obj, cloud, rgb, T_base_board, est.height, params.colour_tol)
+        if sil is None:
+            continue
+        taken[sil.rows, sil.cols] = True  # the other slivers of this object
+        rect = sil.rect
+        if (
+            rect is None
+            or board.field_of_board_xy(rect.center[None, :])[0, 0] < 0
+            or any(p.covers(rect.center) for p in placed)
+        ):
+            continue  # not placed, off the field grid, or on an object already found
+        size = np.sort(rect.size)[::-1]
+        yaw = rect.yaw if rect.size[0] >= rect.size[1] else rect.yaw + np.pi / 2
+        est = replace(
+            est, center_xy=rect.center, size=(float(size[0]), float(size[1])), whole_xy=rect.center,
+            whole_size=(float(size[0]), float(size[1])), yaw=float((yaw + np.pi / 2) % np.pi - np.pi / 2),
+        )  # fmt: skip
+        out.append((est, obj, InView(1.0, ("depth_holes",), sil.missing, sil.missing)))
+    return out
+
+
 def detect(
     points: object,
     board: Board,
@@ -182,14 +222,27 @@ def detect(
     t2 = time.perf_counter()
     white = None
     need_white = colours is not None and organized  # measured once, for the first object named
+
+    def board_white_once() -> np.ndarray | None:
+        nonlocal white, need_white
+        if need_white and colours is not None:
+            T_board_plane = invert(fit.T_base_board) @ fit.T_base_plane
+            s = params.stride
+            white = board_white(fit.m_coarse, colours[::s, ::s], T_board_plane, board, params.outline_band)
+            need_white = False
+        return white
+
     depth = cloud[..., 2] if organized else None
-    objects = []
+    objects, placed, slivers = [], [], []
     for obj in found:
         if obj.b.shape[1] < params.min_points:
             continue
         est = estimate_object(obj, fit.plane.rms, params.curvature, params.colour_tol, params.min_width)
-        if est.whole_size[1] < params.min_width or est.height < params.min_object_height:
-            continue  # a sliver of mixed pixels, or below the height floor
+        if est.height < params.min_object_height:
+            continue  # below the height floor
+        if est.whole_size[1] < params.min_width:
+            slivers.append((est, obj))  # mixed pixels, or all the depth a dark object returns
+            continue
         view = None  # measured only for objects that may be kept
         if est.size[1] < params.min_width:  # a sliver of a top
             view = in_view(obj, est.height, params.colour_tol, depth)
@@ -203,13 +256,15 @@ def detect(
             view = in_view(obj, est.height, params.colour_tol, depth)
         if view.off_board > OFF_BOARD:
             continue  # beside the board (on the table)
-        if need_white and colours is not None:
-            T_board_plane = invert(fit.T_base_board) @ fit.T_base_plane
-            s = params.stride
-            white = board_white(fit.m_coarse, colours[::s, ::s], T_board_plane, board, params.outline_band)
-            need_white = False
-        colour = _colour(obj, est, white, params)
+        colour = _colour(obj, est, board_white_once(), params)
         objects.append(_to_message(est, board, fit.T_base_board, fit.plane.rms, view, colour))
+        placed.append(est)
+    if slivers and colours is not None and organized:
+        for est, obj, view in _from_silhouettes(
+            slivers, cloud, colours, fit.T_base_board, placed, board, params
+        ):
+            colour = _colour(obj, est, board_white_once(), params)
+            objects.append(_to_message(est, board, fit.T_base_board, fit.plane.rms, view, colour))
     objects.sort(key=lambda o: (not o.allowed, -o.n_points))
     t3 = time.perf_counter()
     timings.update(segment_ms=(t2 - t1) * 1e3, objects_ms=(t3 - t2) * 1e3, total_ms=(t3 - t0) * 1e3)

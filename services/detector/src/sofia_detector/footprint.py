@@ -49,6 +49,14 @@ class ObjectEstimate:
     whole_xy: np.ndarray = field(default_factory=lambda: np.zeros(2))
     whole_size: tuple[float, float] = (0.0, 0.0)
 
+    def covers(self, xy: np.ndarray) -> bool:
+        """True when the board-frame point xy (2,) lies on the footprint rectangle."""
+        c, s = np.cos(self.yaw), np.sin(self.yaw)
+        d = xy - self.center_xy
+        return bool(
+            abs(c * d[0] + s * d[1]) < self.size[0] / 2 and abs(c * d[1] - s * d[0]) < self.size[1] / 2
+        )
+
 
 def _spread(h: np.ndarray) -> float:
     """Robust standard deviation (1.4826 median absolute deviation) of (n,) heights, metres."""

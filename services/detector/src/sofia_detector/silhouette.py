@@ -1,0 +1,157 @@
+"""An object with almost no depth, placed from its colour silhouette and its height.
+
+A black object in the second imager's shadow (or one absorbing the projector's pattern) returns
+depth only along a sliver or two: too thin to be an object by themselves. The colour camera still
+sees the whole object. For an object with vertical sides and a top of height h, the rays through
+its silhouette cut the plane of the top (z = h) in the top itself plus, towards the camera, the
+band seen on the near sides; they cut the board (z = 0) in the near part of the base plus the top
+pushed away from the camera. Both cover the footprint, and only the footprint: their intersection
+is it, whatever the viewing direction. The rays come from a pinhole camera fitted to the organized
+cloud around the object (pixels and their board-frame points), the height from the slivers.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import ndimage
+
+from .depth_clean import EIGHT, chroma, colour_distance
+from .outline import Rect, min_area_rect
+from .pixels import grow, median, where
+from .plane import change_frame, coords
+from .segment import ObjectPoints
+
+RAISED = 0.005  # metres: a pixel with depth this close to the board is the board
+MIN_MISSING = 0.5  # share of the silhouette without depth below which the slivers are the object
+CAMERA_POINTS = 600  # pixels with depth used to fit the camera
+MAX_REPROJECTION = 1.5  # pixels: median reprojection error of a usable camera fit
+CELL = 0.002  # metres: grid of the ray intersections
+ON_FOOTPRINT = 0.004  # metres: the slivers lie on the footprint within this distance
+BOARD_LIKE = 0.05  # share of the board around of the object's colour above which nothing is done
+
+
+@dataclass(frozen=True)
+class Silhouette:
+    """An object's silhouette: its pixels in the image (rows, cols) (n,), the share of them without
+    depth, and its board-frame footprint rectangle (metres; None when it cannot be placed)."""
+
+    rows: np.ndarray
+    cols: np.ndarray
+    missing: float
+    rect: Rect | None = None
+
+
+def fit_camera(pix: np.ndarray, xyz: np.ndarray) -> np.ndarray | None:
+    """(3, 4) projection P with ``P [x y z 1]^T ~ [col row 1]^T`` by the normalised direct linear
+    transform. pix: (n, 2) (col, row); xyz: (n, 3) board frame, metres, not coplanar. None when
+    the points do not fix it or it reprojects them worse than :data:`MAX_REPROJECTION`."""
+    if pix.shape[0] < 12 or float(np.std(xyz[:, 2])) < 0.005:
+        return None
+    m2, m3 = pix.mean(axis=0), xyz.mean(axis=0)
+    s2 = np.sqrt(2.0) / max(float(np.mean(np.linalg.norm(pix - m2, axis=1))), 1e-12)
+    s3 = np.sqrt(3.0) / max(float(np.mean(np.linalg.norm(xyz - m3, axis=1))), 1e-12)
+    T2 = np.array([[s2, 0, -s2 * m2[0]], [0, s2, -s2 * m2[1]], [0, 0, 1.0]])
+    T3 = np.diag([s3, s3, s3, 1.0])
+    T3[:3, 3] = -s3 * m3
+    X = np.hstack([(xyz - m3) * s3, np.ones((xyz.shape[0], 1))])
+    u, v = ((pix - m2) * s2).T
+    zero = np.zeros_like(X)
+    A = np.vstack([np.hstack([X, zero, -u[:, None] * X]), np.hstack([zero, X, -v[:, None] * X])])
+    _, s, vt = np.linalg.svd(A, full_matrices=False)
+    if s[-2] < 1e-9 * s[0]:
+        return None
+    P = np.linalg.inv(T2) @ vt[-1].reshape(3, 4) @ T3
+    q = P @ np.hstack([xyz, np.ones((xyz.shape[0], 1))]).T
+    err = np.linalg.norm(q[:2] / q[2] - pix.T, axis=0)
+    return P if float(median(err)) < MAX_REPROJECTION else None
+
+
+def on_plane(P: np.ndarray, cols: np.ndarray, rows: np.ndarray, z: float) -> np.ndarray:
+    """(n, 2) board-frame xy where the rays of pixels (cols, rows) (n,) cut the plane at height z."""
+    H = np.column_stack([P[:, 0], P[:, 1], P[:, 2] * z + P[:, 3]])
+    q = np.linalg.solve(H, np.vstack([cols, rows, np.ones(cols.size)]))
+    return (q[:2] / q[2]).T  # type: ignore[no-any-return]
+
+
+def _cells(xy: np.ndarray, lo: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
+    """(shape) bool: the cells of :data:`CELL` from ``lo`` holding a point of xy (n, 2), closed and
+    with their holes filled (a pixel's ray lands about a pixel spacing from its neighbours')."""
+    idx = np.floor((xy - lo) / CELL).astype(np.intp)
+    grid = np.zeros(shape, dtype=bool)
+    grid[idx[:, 0], idx[:, 1]] = True
+    return ndimage.binary_fill_holes(ndimage.binary_closing(grid, EIGHT, iterations=2, border_value=0))
+
+
+def footprint(P: np.ndarray, rows: np.ndarray, cols: np.ndarray, height: float) -> np.ndarray:
+    """(k, 2) board-frame centres of the cells of the footprint of an upright object of ``height``
+    (metres) whose silhouette is the pixels (rows, cols) (n,): where its rays at the top's height
+    and at the board agree."""
+    top = on_plane(P, cols, rows, height)
+    base = on_plane(P, cols, rows, 0.0)
+    lo = np.minimum(top.min(axis=0), base.min(axis=0)) - 3 * CELL
+    hi = np.maximum(top.max(axis=0), base.max(axis=0)) + 3 * CELL
+    shape = tuple(np.ceil((hi - lo) / CELL).astype(int) + 1)
+    both = _cells(top, lo, shape) & _cells(base, lo, shape)  # type: ignore[arg-type]
+    i, j = where(both)
+    return lo + (np.column_stack([i, j]) + 0.5) * CELL  # type: ignore[no-any-return]
+
+
+def silhouette(
+    obj: ObjectPoints, cloud: np.ndarray, rgb: np.ndarray, T_base_board: np.ndarray, height: float, tol: float
+) -> Silhouette | None:
+    """The object whose depth is only ``obj`` (a sliver), placed from its colour silhouette.
+
+    cloud: (H, W, 3) organized points, base frame, metres (NaN where missing); rgb: (H, W, 3) uint8
+    aligned colours; T_base_board: (4, 4) measured board frame; height: the object's top above the
+    board (metres); tol: colour distance of the object's colour. The silhouette is the region of
+    the sliver's colour, without depth or raised above the board, joined to the sliver. None when
+    the board around has the object's colour; the silhouette without ``rect`` when it cannot be placed (it
+    reaches the edge of the searched area: the image border, something of the same colour running
+    off; depth covers most of it: the sliver is what there is; the camera or the footprint cannot
+    be fixed).
+    """
+    if obj.rows is None or obj.cols is None or obj.rgb is None:
+        return None
+    (r0, c0), (H, W) = obj.origin, obj.image_shape
+    h, w = obj.shape
+    top, bottom = max(r0 - h, 0), min(r0 + 2 * h, H)
+    left, right = max(c0 - w, 0), min(c0 + 2 * w, W)
+    b = change_frame(coords(cloud[top:bottom, left:right]), T_base_board)
+    z = b[2]
+    rows, cols = obj.rows + r0 - top, obj.cols + c0 - left
+    own = chroma(median(obj.rgb[obj.rows, obj.cols].astype(np.float64)))
+    same = colour_distance(chroma(rgb[top:bottom, left:right]), own) < tol
+    with np.errstate(invalid="ignore"):
+        board = np.abs(z) < RAISED
+    around = board & grow(same, 9)
+    if np.count_nonzero(same & around) > BOARD_LIKE * max(int(np.count_nonzero(around)), 1):
+        return None  # the object stands on its own colour
+    labels, _ = ndimage.label(same & ~board, structure=EIGHT)
+    ids = np.unique(labels[rows, cols])
+    region = np.isin(labels, ids[ids > 0])
+    region[rows, cols] = True
+    sr, sc = where(region)
+    missing = float(np.mean(np.isnan(z[sr, sc])))
+    unplaced = Silhouette(sr + top, sc + left, missing)
+    edge = (sr == 0) | (sc == 0) | (sr == z.shape[0] - 1) | (sc == z.shape[1] - 1)
+    if edge.any() or missing < MIN_MISSING:
+        return unplaced
+    vr, vc = where(np.isfinite(z))
+    k = max(1, vr.size // CAMERA_POINTS)
+    vr, vc = vr[::k], vc[::k]
+    P = fit_camera(
+        np.column_stack([vc + left, vr + top]).astype(np.float64), b[:, vr, vc].T.astype(np.float64)
+    )
+    if P is None:
+        return unplaced
+    cells = footprint(P, sr + top, sc + left, height)
+    if cells.shape[0] < 3:
+        return unplaced
+    rect = min_area_rect(cells)
+    # the slivers are the object's top or sides: on its footprint
+    inside = np.abs((obj.b[:2].T - rect.center) @ rect.R) <= rect.size / 2 + ON_FOOTPRINT
+    if np.mean(np.all(inside, axis=1)) < 0.5:
+        return unplaced
+    return Silhouette(sr + top, sc + left, missing, rect)

@@ -39,6 +39,7 @@ from sofia_schemas.ros2 import convert as cv
 from sofia_schemas.ros2.typesupport import decode, encode
 from sofia_schemas.rosmsg import decode_flange_pose, encode_flange_pose
 
+from ..client import fetch_latest
 from .rmw import STATIC_QOS, Attachment, Graph, Node, Qos, reply, sample_attachment
 from .tfchain import TfChain
 
@@ -119,7 +120,14 @@ class Bridge:
         self._stop = threading.Event()
         self._worker = threading.Thread(target=self._serve, name="ros2-detect", daemon=True)
         self._worker.start()
-        threading.Thread(target=self._fetch_calibration, name="ros2-calibration", daemon=True).start()
+        # the calibrator's current result, if it has one, for late starts of the bridge
+        self._fetching = fetch_latest(
+            session,
+            keys.calibration_result,
+            self._convert(CalibrationResult, self._calib),
+            self._stop,
+            timeout=3.0,
+        )
 
     def _node(self, name: str) -> Node:
         node = self.graph.node(name)
@@ -177,16 +185,6 @@ class Bridge:
             return
         self.pub["tf"].put(encode(cv.tf_message([cv.flange_transform(pose)]), cv.TF_MESSAGE))
         self.counters["out"] += 1
-
-    def _fetch_calibration(self) -> None:
-        """The calibrator's current result, if it has one, for late starts of the bridge."""
-        try:
-            for r in self.session.get(self.keys.calibration_result, timeout=3.0):
-                if r.ok is not None:
-                    self._calib(CalibrationResult.model_validate_json(r.ok.payload.to_bytes()))
-                    return
-        except (ValueError, zenoh.ZError) as e:
-            log.info("no calibration result yet: %s", e)
 
     # --- ROS 2 -> SofIA ---------------------------------------------------
     def _on_ros_cloud(self, cdr: bytes, _att: Attachment | None) -> None:
@@ -276,8 +274,11 @@ class Bridge:
         return cv.detect_response(None, f"no detector answered on {self.keys.detect}")
 
     def close(self) -> None:
+        """Undeclare everything; the threads leave the session's calls first (it cannot close while
+        a thread is inside one: see :func:`..client.fetch_latest`)."""
         self._stop.set()
-        self._worker.join(timeout=2.0)
+        self._worker.join(timeout=self.config.detect_timeout_s + 1.0)  # a request in flight ends
+        self._fetching.join(timeout=5.0)
         for s in self._subs:
             s.undeclare()
         for node in self.nodes:

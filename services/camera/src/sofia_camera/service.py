@@ -25,6 +25,7 @@ from typing import Any, Literal
 
 import zenoh
 from sofia_replay.preload import shm_enabled
+from sofia_runtime.client import fetch_latest
 from sofia_runtime.service import StatusEndpoint, StopFlag, run_worker
 from sofia_runtime.zenoh_config import zenoh_config
 from sofia_schemas.keys import ENCODING_CDR_CAMERA_INFO, ENCODING_CDR_POINTCLOUD2, Keys
@@ -222,14 +223,6 @@ class ServiceConfig:
     align: str = "registration"  # depth onto the colour grid: registration | librealsense (rs.align)
 
 
-def _initial_correction(session: zenoh.Session, keys: Keys, correction: DepthCorrection) -> None:
-    """The calibrator's current result, if a calibrator answers (it may start later: then the
-    subscriber gets its next result)."""
-    for reply in session.get(keys.calibration_result, timeout=3.0):
-        if reply.ok is not None:
-            correction.on_result(reply.ok.payload.to_bytes())
-
-
 def main(config: ServiceConfig) -> int:
     """Run the camera service until SIGINT/SIGTERM."""
     stop = StopFlag()
@@ -254,7 +247,9 @@ def main(config: ServiceConfig) -> int:
         publish, declared = zenoh_publishers(session, keys)
         declared.append(session.declare_subscriber(keys.calibration_result,
                                                    lambda s: correction.on_result(s.payload.to_bytes())))  # fmt: skip
-        threading.Thread(target=_initial_correction, args=(session, keys, correction), daemon=True).start()
+        # the calibrator's current result, if a calibrator answers (one that starts later: its next result)
+        fetching = fetch_latest(session, keys.calibration_result,
+                                lambda s: correction.on_result(s.payload.to_bytes()), stop.event, timeout=3.0)  # fmt: skip
         idle = None
         workers = []
         if config.sim is not None:
@@ -285,6 +280,7 @@ def main(config: ServiceConfig) -> int:
         log.info("camera stopping")
         for worker in workers:
             worker.join(timeout=5.0)
+        fetching.join(timeout=5.0)  # out of the session's calls before it closes
         status.undeclare()
         for d in declared:
             d.undeclare()

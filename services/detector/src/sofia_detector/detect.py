@@ -19,8 +19,9 @@ from .footprint import ObjectEstimate, estimate_object
 from .params import DetectorParams
 from .pixels import median
 from .plane import coords
-from .segment import Levels, ObjectPoints, organized_objects, unorganized_objects
+from .segment import Levels, ObjectPoints, organized_objects
 from .silhouette import silhouette
+from .unorganized import unorganized_objects
 from .visibility import InView, in_view
 
 DEFAULT_PARAMS = DetectorParams()
@@ -100,7 +101,7 @@ def _objects(
         return list(
             organized_objects(cloud, fit.m_coarse, fit.T_base_board, T_board_plane, half, params, lv, rgb)
         )
-    return list(unorganized_objects(fit.m_coarse, invert(T_board_plane), half, params, lv.point))
+    return list(unorganized_objects(fit.m_coarse, invert(T_board_plane), half, params, lv.point, rgb))
 
 
 def as_colours(rgb: object, cloud: np.ndarray) -> np.ndarray | None:
@@ -120,11 +121,13 @@ def as_colours(rgb: object, cloud: np.ndarray) -> np.ndarray | None:
 def _colour(
     obj: ObjectPoints, est: ObjectEstimate, white: np.ndarray | None, params: DetectorParams
 ) -> Colour:
+    upper = obj.b[2] >= 0.8 * est.height
+    sel = np.flatnonzero(upper) if np.count_nonzero(upper) >= 3 else np.arange(obj.b.shape[1])
+    sel = sel[:: max(1, sel.size // 500)]
+    if obj.point_rgb is not None:  # an unorganized cloud: the upper points' colours as seen
+        return name_colour(median(obj.point_rgb[sel].astype(np.float64)), white, params.palette)
     if obj.rgb is None or obj.rows is None or obj.cols is None:
         return None, None
-    upper = obj.b[2] >= 0.8 * est.height
-    sel = np.flatnonzero(upper) if np.count_nonzero(upper) >= 3 else np.arange(obj.rows.size)
-    sel = sel[:: max(1, sel.size // 500)]
     rows, cols = obj.rows[sel], obj.cols[sel]
     pix = obj.rgb[rows, cols].reshape(-1, 3).astype(np.float64)
     named = name_colour(median(pix), white, params.palette)
@@ -221,14 +224,19 @@ def detect(
     found = _objects(cloud, colours, fit, board, params, lv)
     t2 = time.perf_counter()
     white = None
-    need_white = colours is not None and organized  # measured once, for the first object named
+    need_white = colours is not None  # measured once, for the first object named
 
     def board_white_once() -> np.ndarray | None:
         nonlocal white, need_white
         if need_white and colours is not None:
             T_board_plane = invert(fit.T_base_board) @ fit.T_base_plane
             s = params.stride
-            white = board_white(fit.m_coarse, colours[::s, ::s], T_board_plane, board, params.outline_band)
+            m, c = (
+                (fit.m_coarse, colours[::s, ::s])
+                if organized
+                else (fit.m_coarse[:, ::7, None], colours[::7, None])
+            )
+            white = board_white(m, c, T_board_plane, board, params.outline_band)
             need_white = False
         return white
 

@@ -1,8 +1,7 @@
 """The points of each object on the board.
 
 Organized clouds: object seeds on the coarse pixel grid (heights above the measured plane), then
-full resolution only inside each seed's pixel window. Unorganized clouds: connected cells of an
-occupancy grid in the board plane.
+full resolution only inside each seed's pixel window. Unorganized clouds: :mod:`.unorganized`.
 """
 
 from __future__ import annotations
@@ -25,8 +24,8 @@ PART_MARGIN = 0.005  # metres
 
 @dataclass(frozen=True)
 class ObjectPoints:
-    """One object: b (3, n) float32 board-frame coordinates (z = height), metres. Organized clouds
-    also give each point's pixel (rows, cols) in a window of ``shape``, so that the outline of a
+    """One object: b (3, n) float32 board-frame coordinates (z = height), metres; unorganized
+    clouds with colours give each point's colour. Organized clouds also give each point's pixel (rows, cols) in a window of ``shape``, so that the outline of a
     subset is found on the pixel grid, with the window around them (coordinates and colours)
     that tells how much of the object is in view."""
 
@@ -38,6 +37,7 @@ class ObjectPoints:
     image_shape: tuple[int, int] = (0, 0)
     window: np.ndarray | None = None  # (3, *shape) float32 board-frame coordinates of the window
     rgb: np.ndarray | None = None  # (*shape, 3) uint8 colours of the window
+    point_rgb: np.ndarray | None = None  # (n, 3) uint8 colours of the points (unorganized clouds)
 
     def boundary_xy(self, subset: np.ndarray | None = None) -> np.ndarray:
         """(k, 2) points of ``subset`` ((n,) bool, default all) including every vertex of the
@@ -171,41 +171,3 @@ def _with_parts_on_top(
         if p[2].min() > floor and np.all(p[:2].min(axis=1) >= lo) and np.all(p[:2].max(axis=1) <= hi):
             out |= part
     return out
-
-
-def unorganized_objects(
-    m_plane: np.ndarray, T_plane_board: np.ndarray, half: np.ndarray, params: DetectorParams, point: float
-) -> Iterator[ObjectPoints]:
-    """Objects of an unorganized cloud.
-
-    m_plane: (3, n) float32 coordinates of every point in the plane frame, metres.
-    T_plane_board: (4, 4) measured board frame in the plane frame. half: (2,) half size of the
-    region where object centres may lie, board frame. Points above the board are binned into
-    ``params.cell`` cells; cells holding at least two points are connected. point: height above
-    the board of an object point.
-    """
-    b = change_frame(m_plane, T_plane_board)
-    grid_half = half + 0.06
-    with np.errstate(invalid="ignore"):
-        keep = (
-            (b[2] > point)
-            & (b[2] < params.max_height)
-            & (np.abs(b[0]) < grid_half[0])
-            & (np.abs(b[1]) < grid_half[1])
-        )
-    b = b[:, keep]
-    if b.shape[1] == 0:
-        return
-    shape = tuple(np.ceil(2 * grid_half / params.cell).astype(int) + 1)
-    idx = np.floor((b[:2].T + grid_half) / params.cell).astype(np.intp)
-    flat = np.ravel_multi_index((idx[:, 0], idx[:, 1]), shape)
-    counts = np.bincount(flat, minlength=shape[0] * shape[1]).reshape(shape)
-    labels, n = ndimage.label(counts >= 2, structure=EIGHT)
-    point_labels = labels.ravel()[flat]
-    order = np.argsort(point_labels, kind="stable")
-    bounds = np.searchsorted(point_labels[order], np.arange(1, n + 2))
-    for i in range(n):
-        pts = b[:, order[bounds[i] : bounds[i + 1]]]
-        if pts.shape[1] == 0 or not _inside(pts[:2].mean(axis=1), half):
-            continue
-        yield ObjectPoints(pts)

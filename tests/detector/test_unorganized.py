@@ -81,3 +81,16 @@ def test_pieces_of_different_colours_stay_apart() -> None:
         d = min(det.objects, key=lambda d: np.linalg.norm(np.array(d.center) - o.center))
         assert np.linalg.norm(np.array(d.center) - o.center) < 0.005
         assert d.colour == o.colour
+
+
+def test_without_the_pixel_grid_the_confidence_stays_below_0_9() -> None:
+    """An unorganized cloud cannot tell the image border or an occluder: a bottle cut by the image
+    border is reported whole-looking (its visible part), so no object of such a cloud claims the
+    >= 0.9 (within 5 mm) confidence, while the same cloud organized says it is truncated."""
+    f = _bench_scene("edge-cut", 11)
+    pts, rgb = _flat(f)
+    flat = detect(pts, f.board, rgb=rgb)
+    grid = detect(f.points_base, f.board, rgb=f.rgb)
+    assert flat.objects and all(o.confidence <= 0.85 for o in flat.objects)
+    assert all(o.truncated == () for o in flat.objects)
+    assert any("image_edge" in o.truncated and o.confidence < 0.5 for o in grid.objects)

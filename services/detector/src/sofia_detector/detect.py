@@ -27,6 +27,9 @@ from .visibility import InView, in_view
 DEFAULT_PARAMS = DetectorParams()
 HOLES_OK = 0.05  # share of an object's pixels without depth that costs no confidence
 TRUNCATED_CONFIDENCE = 0.45  # the centre of a truncated object's visible part is not trusted
+# unorganized clouds: the image border and occluders are unseen; on the realistic scenes flattened,
+# 90.9 % of their objects are within 5 mm (100 % of organized clouds' objects at >= 0.9)
+UNMEASURED_CONFIDENCE = 0.85
 OFF_BOARD = 0.5  # an object most of whose surroundings lie below the board stands beside it
 Colour = tuple[str | None, tuple[int, int, int] | None]
 OUTLINE_CUT = (
@@ -69,6 +72,8 @@ def _to_message(
     confidence = coverage * flatness * (1.0 - max(view.holes - HOLES_OK, 0.0))
     if view.reasons:  # truncated: the centre of the visible part
         confidence = min(confidence, TRUNCATED_CONFIDENCE) * view.fraction
+    if not view.measured:
+        confidence = min(confidence, UNMEASURED_CONFIDENCE)
     return DetectedObject(
         center=tuple(float(v) for v in center),  # type: ignore[arg-type]
         centroid=tuple(float(v) for v in centroid),  # type: ignore[arg-type]

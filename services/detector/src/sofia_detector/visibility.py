@@ -26,13 +26,15 @@ class InView:
     """fraction: estimated share of the object in view (0-1). reasons: what hides the rest
     (``image_edge``, ``occluded``, ``depth_holes``). lost: share of the silhouette out of view.
     holes: share of the object's pixels without depth. off_board: share of its surroundings
-    (among those at or below board level) lying below the board: it stands beside the board."""
+    (among those at or below board level) lying below the board: it stands beside the board.
+    measured: False for an unorganized cloud, whose missing pixel grid cannot tell any of this."""
 
     fraction: float
     reasons: tuple[str, ...]
     lost: float
     holes: float
     off_board: float = 0.0
+    measured: bool = True
 
 
 def seen_from(depth: np.ndarray, rows: slice, stop: int) -> np.ndarray:
@@ -53,7 +55,7 @@ def in_view(obj: ObjectPoints, top: float, tol: float, depth: np.ndarray | None 
     imager sits to the right), not a hole in it.
     """
     if obj.rows is None or obj.cols is None or obj.window is None:
-        return InView(1.0, (), 0.0, 0.0, 0.0)
+        return InView(1.0, (), 0.0, 0.0, 0.0, measured=False)
     (r0, c0), (H, W) = obj.origin, obj.image_shape
     lo_r, hi_r, lo_c, hi_c = (
         int(v) for v in (obj.rows.min(), obj.rows.max(), obj.cols.min(), obj.cols.max())

@@ -106,11 +106,13 @@ def silhouette(
     cloud: (H, W, 3) organized points, base frame, metres (NaN where missing); rgb: (H, W, 3) uint8
     aligned colours; T_base_board: (4, 4) measured board frame; height: the object's top above the
     board (metres); tol: colour distance of the object's colour. The silhouette is the region of
-    the sliver's colour, without depth or raised above the board, joined to the sliver. None when
-    the board around has the object's colour; the silhouette without ``rect`` when it cannot be placed (it
-    reaches the edge of the searched area: the image border, something of the same colour running
-    off; depth covers most of it: the sliver is what there is; the camera or the footprint cannot
-    be fixed).
+    the sliver's colour, without depth or raised above the board, joined to the sliver, searched
+    within one window size around the sliver's window.
+
+    Returns None when the board around has the object's colour. Returns the silhouette without
+    ``rect`` when it cannot be placed: it reaches the edge of the searched area (the image border,
+    something of the same colour running off), depth covers most of it (the sliver is what there
+    is), the camera or the footprint cannot be fixed, or the slivers are not on the footprint.
     """
     if obj.rows is None or obj.cols is None or obj.rgb is None:
         return None

@@ -29,11 +29,11 @@ import numpy as np
 from bench_detector import baseline, on_object, pct
 from sofia_detector import detect
 from sofia_replay.synth.d435 import d435_camera
-from sofia_replay.synth.realism import CATEGORIES, OTHER_BOARD, make_real_frame
+from sofia_replay.synth.realism import BENCH_RESOLUTIONS as RESOLUTIONS
+from sofia_replay.synth.realism import CATEGORIES, OTHER_BOARD, bench_frame
 from sofia_schemas import Board
 
 CACHE_VERSION = "detector-real-v1"
-RESOLUTIONS = ((640, 480), (848, 480), (1280, 720))
 FOUND_VISIBLE = 0.7  # objects at least this visible must be found
 TARGET_MS = {(640, 480): 5.0, (848, 480): 6.0, (1280, 720): 12.0}  # median time per cloud
 TARGET_RATIO = 10  # at least this many times faster than the baseline
@@ -54,14 +54,13 @@ def render_cases(board: Board, per_category: int, cache: Path, render: bool = Tr
     cache = cache / CACHE_VERSION
     cache.mkdir(parents=True, exist_ok=True)
     paths, t0 = [], time.perf_counter()
-    for ci, cat in enumerate(CATEGORIES):
+    for cat in CATEGORIES:
         for k in range(per_category):
-            res = RESOLUTIONS[k % 3]
             path = cache / f"{cat}-{k:03d}.npz"
             if not path.exists():
                 if not render:
                     continue
-                f = make_real_frame(board, cat, np.random.default_rng(50_000 + 1000 * ci + k), res)
+                f = bench_frame(board, cat, k)
                 truth = [
                     {**o.to_json(), "visibility": v, "in_image": e}
                     for o, v, e in zip(f.objects, f.visibility, f.in_image, strict=True)

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from sofia_detector import detect
 from sofia_detector.outline import fit_outline
-from sofia_replay.synth.realism import make_real_frame
+from sofia_replay.synth.realism import bench_frame
 from sofia_replay.synth.scene import BOARD_MARGIN
 from sofia_schemas import Board
 from sofia_schemas.transforms import invert
@@ -22,7 +22,7 @@ MAX_YAW = 0.105
 def test_a_board_edge_lost_in_missing_depth_does_not_move_the_board_onto_the_clutter() -> None:
     # bench_detector_real.py's bottle-000: the board edge on the image's left lies in the band without depth,
     # the clutter box stands against the opposite edge
-    f = make_real_frame(BOARD, "bottle", np.random.default_rng(54_000), (640, 480))
+    f = bench_frame(BOARD, "bottle", 0)
     T_board_base = invert(f.T_base_board)
     p = f.points_base.reshape(-1, 3)
     p = p[np.isfinite(p).all(axis=1)]

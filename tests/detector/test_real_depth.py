@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from sofia_detector import detect
 from sofia_detector.depth_clean import bridge, consistent, consistent_at
-from sofia_replay.synth.realism import RealFrame, make_real_frame
+from sofia_replay.synth.realism import RealFrame, bench_frame, make_real_frame
 from sofia_schemas import Board
 
 BOARD = Board.default()
@@ -109,10 +109,7 @@ def test_a_cone_half_in_its_shadow_is_centred_on_its_apex() -> None:
     """A cone whose base shows only in part (depth holes around its tip and its stereo shadow): its
     footprint rectangle is not its base, so its apex is placed from the slope of the flanks it
     shows (it was 13 mm low and off before)."""
-    from sofia_replay.synth.realism import CATEGORIES
-
-    seed = 50_000 + 1000 * CATEGORIES.index("cone") + 19  # bench_detector_real's cone-019
-    f = make_real_frame(BOARD, "cone", np.random.default_rng(seed), (848, 480))
+    f = bench_frame(BOARD, "cone", 19)  # bench_detector_real's cone-019
     det = detect(f.points_base, f.board, rgb=f.rgb)
     err, obj = _errors_mm(det, f)[0]
     assert abs(obj.extents[2] - f.objects[0].extents[2]) < 0.004  # type: ignore[attr-defined]
@@ -132,10 +129,7 @@ def test_a_tall_object_whose_top_the_image_edge_cuts_is_reported_not_dropped() -
     """A bottle at the image's top border shows its side and a sliver of its top: the sliver is no
     flying-pixel sheet (the object's whole footprint is wide), so the bottle is reported from what is
     seen of it, truncated and unconfident (it was dropped as a sliver before)."""
-    from sofia_replay.synth.realism import CATEGORIES
-
-    seed = 50_000 + 1000 * CATEGORIES.index("edge-cut") + 19  # bench_detector_real's edge-cut-019
-    f = make_real_frame(BOARD, "edge-cut", np.random.default_rng(seed), (848, 480))
+    f = bench_frame(BOARD, "edge-cut", 19)  # bench_detector_real's edge-cut-019
     assert 0.7 < f.in_image[0] < 0.9 and f.objects[0].extents[2] > 0.15  # type: ignore[attr-defined]
     det = detect(f.points_base, f.board, rgb=f.rgb)
     assert len(det.objects) == 1, det.objects

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 from sofia_detector import detect
 from sofia_detector.silhouette import fit_camera, footprint, on_plane
-from sofia_replay.synth.realism import CATEGORIES, make_real_frame
+from sofia_replay.synth.realism import bench_frame
 from sofia_schemas import Board
 
 BOARD = Board.default()
@@ -64,8 +64,7 @@ def test_the_camera_is_fitted_from_the_organized_points() -> None:
 
 
 def _dark_022():  # type: ignore[no-untyped-def]
-    seed = 50_000 + 1000 * CATEGORIES.index("dark") + 22  # bench_detector_real's dark-022
-    return make_real_frame(BOARD, "dark", np.random.default_rng(seed), (848, 480))
+    return bench_frame(BOARD, "dark", 22)  # bench_detector_real's dark-022
 
 
 def test_a_black_object_in_the_fingers_stereo_shadow_is_found_from_its_silhouette() -> None:

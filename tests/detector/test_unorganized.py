@@ -7,17 +7,15 @@ import numpy as np
 import pytest
 from sofia_detector import detect
 from sofia_detector.unorganized import dense
-from sofia_replay.synth.realism import CATEGORIES, RealFrame, make_real_frame
+from sofia_replay.synth.realism import RealFrame, bench_frame
 from sofia_schemas import Board
 
 BOARD = Board.default()
-RESOLUTIONS = ((640, 480), (848, 480), (1280, 720))
 
 
 def _bench_scene(category: str, k: int) -> RealFrame:
     """bench_detector_real's scene ``<category>-<k>``."""
-    seed = 50_000 + 1000 * CATEGORIES.index(category) + k
-    return make_real_frame(BOARD, category, np.random.default_rng(seed), RESOLUTIONS[k % 3])
+    return bench_frame(BOARD, category, k)
 
 
 def _flat(f: RealFrame) -> tuple[np.ndarray, np.ndarray]:

@@ -9,18 +9,16 @@ import pytest
 from sofia_detector import detect
 from sofia_detector.caps import fit_cone_apex
 from sofia_detector.rim import round_side
-from sofia_replay.synth.realism import CATEGORIES, RealFrame, make_real_frame
+from sofia_replay.synth.realism import RealFrame, bench_frame
 from sofia_schemas import Board
 
 BOARD = Board.default()
-RESOLUTIONS = ((640, 480), (848, 480), (1280, 720))
 NOISE = 0.0015
 
 
 def _bench_scene(category: str, k: int) -> RealFrame:
-    """The k-th scene of ``category`` of bench_detector_real (same seed and resolution)."""
-    rng = np.random.default_rng(50_000 + 1000 * CATEGORIES.index(category) + k)
-    return make_real_frame(BOARD, category, rng, RESOLUTIONS[k % 3])
+    """The k-th scene of ``category`` of bench_detector_real."""
+    return bench_frame(BOARD, category, k)
 
 
 def _nearest(det, frame: RealFrame):  # type: ignore[no-untyped-def]

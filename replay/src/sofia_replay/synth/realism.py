@@ -28,6 +28,8 @@ OTHER_BOARD = Board(
 FINGER_DEPTH = 0.18  # fingers' distance along the optical axis, metres
 FINGER_TOP = 0.05  # image-down offset of the fingertips at that distance, metres
 LIGHT_COLOURS = tuple(c for c in PAINT if c != "black")
+BENCH_RESOLUTIONS = ((640, 480), (848, 480), (1280, 720))  # the k-th scene of a category: k % 3
+BENCH_SEED = 50_000  # scene k of category i is drawn from seed BENCH_SEED + 1000 i + k
 
 
 @dataclass
@@ -225,3 +227,10 @@ def make_real_frame(
             )
         T_base_cam = aim(T_base_cam, obj.center, uv, camera)
     return render_real(board, T_base_board, objects, T_base_cam, camera, rng, finger_x, category=category)
+
+
+def bench_frame(board: Board, category: str, k: int) -> RealFrame:
+    """The k-th scene of ``category`` of the realistic detector benchmark (its seed and
+    resolution), as ``bench/bench_detector_real.py`` renders it as ``<category>-<k:03d>``."""
+    seed = BENCH_SEED + 1000 * CATEGORIES.index(category) + k
+    return make_real_frame(board, category, np.random.default_rng(seed), BENCH_RESOLUTIONS[k % 3])

@@ -15,7 +15,7 @@ from .board_fit import BoardFit, fit_board
 from .colour import board_white, lit_share, name_colour, shaded_like_another
 from .depth_clean import pixel_spacing
 from .errors import BadCloud
-from .footprint import ObjectEstimate, estimate_object
+from .footprint import ObjectEstimate, estimate_object, half_turn, length_first
 from .params import DetectorParams
 from .pixels import median
 from .plane import coords
@@ -61,8 +61,7 @@ def _to_message(
     center = R @ np.array([est.center_xy[0], est.center_xy[1], est.height / 2]) + t
     centroid = R @ est.centroid + t
     axis_base = R[:, :2] @ np.array([np.cos(est.yaw), np.sin(est.yaw)])
-    yaw = float(np.arctan2(axis_base[1], axis_base[0]))
-    yaw = (yaw + np.pi / 2) % np.pi - np.pi / 2
+    yaw = half_turn(float(np.arctan2(axis_base[1], axis_base[0])))
     rc = board.field_of_board_xy(est.center_xy[None, :])[0]
     fld = (int(rc[0]), int(rc[1])) if rc[0] >= 0 else None
     # confidence: enough points for the footprint, a board plane as flat as a depth camera sees it,
@@ -174,12 +173,8 @@ def _from_silhouettes(
             or any(p.covers(rect.center) for p in placed)
         ):
             continue  # not placed, off the field grid, or on an object already found
-        size = np.sort(rect.size)[::-1]
-        yaw = rect.yaw if rect.size[0] >= rect.size[1] else rect.yaw + np.pi / 2
-        est = replace(
-            est, center_xy=rect.center, size=(float(size[0]), float(size[1])), whole_xy=rect.center,
-            whole_size=(float(size[0]), float(size[1])), yaw=float((yaw + np.pi / 2) % np.pi - np.pi / 2),
-        )  # fmt: skip
+        size, yaw = length_first(rect.size, rect.yaw)
+        est = replace(est, center_xy=rect.center, size=size, whole_xy=rect.center, whole_size=size, yaw=yaw)
         out.append((est, obj, InView(1.0, ("depth_holes",), sil.missing, sil.missing)))
     return out
 

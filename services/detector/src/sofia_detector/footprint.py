@@ -58,6 +58,19 @@ class ObjectEstimate:
         )
 
 
+def half_turn(yaw: float) -> float:
+    """The direction of an axis, ``yaw`` (radians) wrapped to [-pi/2, pi/2)."""
+    return float((yaw + np.pi / 2) % np.pi - np.pi / 2)
+
+
+def length_first(size: np.ndarray, yaw: float) -> tuple[tuple[float, float], float]:
+    """A rectangle's (length, width), length >= width, and the direction of its length axis
+    (:func:`half_turn`), from its ``size`` (2,) along its first axis (at ``yaw``) and its second."""
+    if size[0] < size[1]:
+        return (float(size[1]), float(size[0])), half_turn(yaw + np.pi / 2)
+    return (float(size[0]), float(size[1])), half_turn(yaw)
+
+
 def _spread(h: np.ndarray) -> float:
     """Robust standard deviation (1.4826 median absolute deviation) of (n,) heights, metres."""
     return float(1.4826 * median(np.abs(h - median(h))))
@@ -161,13 +174,10 @@ def estimate_object(
         side = round_side(b, noise, h_hi)
         if side is not None:
             whole_xy, whole_size = side[0], (2 * side[1], 2 * side[1])
-    if size[0] < size[1]:
-        size = size[::-1]
-        yaw += np.pi / 2
-    yaw = float((yaw + np.pi / 2) % np.pi - np.pi / 2)
+    lw, yaw = length_first(size, yaw)
     centroid = b_all.mean(axis=1, dtype=np.float64)
     return ObjectEstimate(
         center_xy=np.asarray(center_xy, dtype=np.float64), height=height,
-        size=(float(size[0]), float(size[1])), yaw=yaw, centroid=centroid, curved=curved, n_points=n,
+        size=lw, yaw=yaw, centroid=centroid, curved=curved, n_points=n,
         whole_xy=np.asarray(whole_xy, dtype=np.float64), whole_size=whole_size,
     )  # fmt: skip

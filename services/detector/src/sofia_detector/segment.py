@@ -53,7 +53,8 @@ class ObjectPoints:
         return b[:2, index[br, bc]].T
 
 
-def _inside(xy: np.ndarray, half: np.ndarray) -> bool:
+def inside(xy: np.ndarray, half: np.ndarray) -> bool:
+    """True when xy (2,) lies within +-``half`` (2,) on both axes."""
     return bool(np.all(np.abs(xy) < half))
 
 
@@ -116,7 +117,7 @@ def organized_objects(
         if sr.size < params.min_seed_pixels:
             continue
         xy_plane = m_coarse[:2][:, sl[0], sl[1]][:, comp].mean(axis=1)
-        if not _inside(T_board_plane[:2, :2] @ xy_plane + T_board_plane[:2, 3], half):
+        if not inside(T_board_plane[:2, :2] @ xy_plane + T_board_plane[:2, 3], half):
             continue  # clutter beside the board
         rows, cols = (sr + sl[0].start) * s, (sc + sl[1].start) * s  # full-resolution seed pixels
         if any(_covers(r, c, m, rows, cols) for r, c, m in claimed):

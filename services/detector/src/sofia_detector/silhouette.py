@@ -18,6 +18,7 @@ import numpy as np
 from scipy import ndimage
 
 from .depth_clean import EIGHT, chroma, colour_distance
+from .holes import dlt
 from .outline import Rect, min_area_rect
 from .pixels import grow, median, where
 from .plane import change_frame, coords
@@ -45,24 +46,14 @@ class Silhouette:
 
 def fit_camera(pix: np.ndarray, xyz: np.ndarray) -> np.ndarray | None:
     """(3, 4) projection P with ``P [x y z 1]^T ~ [col row 1]^T`` by the normalised direct linear
-    transform. pix: (n, 2) (col, row); xyz: (n, 3) board frame, metres, not coplanar. None when
-    the points do not fix it or it reprojects them worse than :data:`MAX_REPROJECTION`."""
+    transform (:func:`.holes.dlt`). pix: (n, 2) (col, row); xyz: (n, 3) board frame, metres, not
+    coplanar. None when the points do not fix it or it reprojects them worse than
+    :data:`MAX_REPROJECTION`."""
     if pix.shape[0] < 12 or float(np.std(xyz[:, 2])) < 0.005:
         return None
-    m2, m3 = pix.mean(axis=0), xyz.mean(axis=0)
-    s2 = np.sqrt(2.0) / max(float(np.mean(np.linalg.norm(pix - m2, axis=1))), 1e-12)
-    s3 = np.sqrt(3.0) / max(float(np.mean(np.linalg.norm(xyz - m3, axis=1))), 1e-12)
-    T2 = np.array([[s2, 0, -s2 * m2[0]], [0, s2, -s2 * m2[1]], [0, 0, 1.0]])
-    T3 = np.diag([s3, s3, s3, 1.0])
-    T3[:3, 3] = -s3 * m3
-    X = np.hstack([(xyz - m3) * s3, np.ones((xyz.shape[0], 1))])
-    u, v = ((pix - m2) * s2).T
-    zero = np.zeros_like(X)
-    A = np.vstack([np.hstack([X, zero, -u[:, None] * X]), np.hstack([zero, X, -v[:, None] * X])])
-    _, s, vt = np.linalg.svd(A, full_matrices=False)
-    if s[-2] < 1e-9 * s[0]:
+    P = dlt(xyz, pix)
+    if P is None:
         return None
-    P = np.linalg.inv(T2) @ vt[-1].reshape(3, 4) @ T3
     q = P @ np.hstack([xyz, np.ones((xyz.shape[0], 1))]).T
     err = np.linalg.norm(q[:2] / q[2] - pix.T, axis=0)
     return P if float(median(err)) < MAX_REPROJECTION else None

@@ -20,7 +20,7 @@ from scipy import ndimage
 from .depth_clean import EIGHT, chroma, colour_distance
 from .params import DetectorParams
 from .plane import change_frame
-from .segment import ObjectPoints
+from .segment import ObjectPoints, inside
 
 VOXEL = 0.005  # metres: a surface at a D435's pixel spacing (1-2 mm at 0.5-1 m) puts 5-25 points in one
 MIN_VOXEL_POINTS = 3
@@ -130,6 +130,6 @@ def unorganized_objects(
     for i in range(n):
         sel = idx[order[bounds[i] : bounds[i + 1]]]
         pts = b[:, sel]
-        if pts.shape[1] == 0 or not np.all(np.abs(pts[:2].mean(axis=1)) < half):
+        if pts.shape[1] == 0 or not inside(pts[:2].mean(axis=1), half):
             continue
         yield ObjectPoints(pts, point_rgb=None if rgb is None else rgb[sel])

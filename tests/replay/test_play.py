@@ -164,6 +164,25 @@ def test_loop_until_stopped(
     assert last.state == "stopping" and last.counters["loops"] >= 2
 
 
+def test_loop_keeps_the_frame_period_across_the_wrap(
+    recording: tuple[Path, dict[str, list[bytes]]], sofia_proc: Callable[..., Any],
+    collect: Callable[[str], Any], robot_id: str,
+) -> None:  # fmt: skip
+    """A loop's first message follows the previous loop's last by one period (100 ms at --rate 0.5),
+    not at once: two clouds in a burst would make a detector with backlog 1 drop one."""
+    path, _ = recording
+    keys = Keys(robot_id)
+    got = collect(keys.flange_pose)
+    proc = sofia_proc("replay", "play", str(path), "--rate", "0.5", "--loop", "--topic", TOPIC_FLANGE_POSE,
+                      "--wait-subscribers", "20")  # fmt: skip
+    received = got.wait_for(keys.flange_pose, N + 2, timeout=30)
+    assert proc.stop() == 0
+    gaps = np.diff([r.t for r in received[: N + 2]])
+    wrap = gaps[N - 1]  # last message of loop 1 -> first of loop 2
+    assert wrap > 0.05, (wrap, gaps)  # one period (0.1 s) less scheduling jitter; at once it was < 2 ms
+    assert wrap < 0.5, (wrap, gaps)
+
+
 @pytest.mark.parametrize(
     "args,message",
     [

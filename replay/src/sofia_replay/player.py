@@ -29,6 +29,7 @@ from sofia_schemas.keys import ENCODING_CDR_POINT, ENCODING_CDR_POINTCLOUD2, ENC
 from sofia_schemas.messages import ServiceStatus, now_ns
 from sofia_schemas.rosmsg import POINT_STAMPED, POINTCLOUD2, TRANSFORM_STAMPED
 
+from .clock import PlayClock
 from .errors import BadMappingError, NoSuchTopicError, RecordingError
 from .mcap_io import RecordedMessage, iter_messages, summary
 from .preload import ShmBuffers, preload, shm_enabled
@@ -42,7 +43,6 @@ ENCODINGS = {
     POINT_STAMPED: ENCODING_CDR_POINT,
 }
 CONGESTION = {"block": zenoh.CongestionControl.BLOCK, "drop": zenoh.CongestionControl.DROP}
-RESYNC_LAG_S = 0.5  # behind schedule by more than this: restart the clock instead of bursting
 DRAIN_S = 0.3  # after the last put, before the session closes, so queued messages leave
 
 
@@ -236,21 +236,19 @@ class Player:
         t_wall0 = time.monotonic()
         next_progress, next_status = t_wall0 + o.progress_period_s, t_wall0
         try:
+            clock = PlayClock(o.rate)
             while not stop.is_set():
-                anchor: tuple[float, int] | None = None  # (wall time, log time) of the clock origin
                 published_before = r.published
+                first_ns = last_ns = None
                 for m in self._messages():
                     now = time.monotonic()
+                    first_ns = m.log_time_ns if first_ns is None else first_ns
+                    last_ns = m.log_time_ns
                     if not o.fast:
-                        if anchor is None:
-                            anchor = (now, m.log_time_ns)
-                        due = anchor[0] + (m.log_time_ns - anchor[1]) / 1e9 / o.rate
-                        if due - now > 0 and stop.wait(due - now):
+                        delay = clock.delay_s(m.log_time_ns, now)
+                        r.late_resyncs = clock.resyncs
+                        if delay > 0 and stop.wait(delay):
                             break
-                        if now - due > RESYNC_LAG_S:
-                            r.late_resyncs += 1
-                            log.debug("%.2f s behind schedule, restarting the clock", now - due)
-                            anchor = (now, m.log_time_ns)
                     elif stop.is_set():
                         break
                     stamp = time.time_ns() if o.restamp and m.schema_name in HEADER_FIRST else None
@@ -276,6 +274,7 @@ class Player:
                         log.warning("nothing to play in %s within the window and topics given", self.path)
                         break
                     if o.loop and (o.max_loops is None or r.loops < o.max_loops):
+                        clock.next_loop(first_ns, last_ns, r.published - published_before)
                         continue
                 break
         finally:

@@ -39,10 +39,10 @@ from sofia_schemas.ros2.encoding import decode_flange, typed_cloud
 from .detect import detect
 from .errors import DetectorBusy, DetectorError, TransformUnavailable, UnknownFrame
 from .frames import FlangeHistory, load_correction_file, load_transform_file, parse_transform
-from .kernels import warm_kernels
 from .params import DetectorParams
 from .pick import PickParams, first_pick
 from .selection import select, split_selection
+from .warmup import warm_up
 from .worker import BAD, UNMAPPED, CloudJob, DropLog, WorkQueue, points_to_base
 
 log = logging.getLogger("sofia.detector")
@@ -265,13 +265,13 @@ def main(config: ServiceConfig) -> int:
     """Run the detector service until SIGINT/SIGTERM."""
     stop = StopFlag()
     keys = Keys(config.robot)
-    warm_kernels()  # loaded from numba's cache before the first cloud, not during it
     with zenoh.open(zenoh_config(config.zenoh)) as session:
         publish = {
             "detections": session.declare_publisher(keys.detections),
             "pick": session.declare_publisher(keys.pick_target),
         }
         service = Detector(config, publish)
+        took = warm_up(service.board, service.detect_payload, config.pick)  # before the first cloud
         declared: list[Any] = [
             session.declare_subscriber(keys.points, service.on_points),
             session.declare_subscriber(keys.camera_points, service.on_camera_points),
@@ -283,8 +283,8 @@ def main(config: ServiceConfig) -> int:
         worker = run_worker("detector", service.run)
         fetching = fetch_latest(session, keys.calibration_result, service.on_calibration, stop.event)
         log.info(
-            "detector ready: clouds on %s and %s, detections on %s, queries on %s (transform: %s)",
-            keys.points, keys.camera_points, keys.detections, keys.detect, service.transform_name,
+            "detector ready: clouds on %s and %s, detections on %s, queries on %s (transform: %s; warmed up in %.0f ms)",
+            keys.points, keys.camera_points, keys.detections, keys.detect, service.transform_name, took * 1e3,
         )  # fmt: skip
         status = declared[-1]
         while not stop.wait(STATUS_PERIOD_S):

@@ -2,13 +2,17 @@
 
 from __future__ import annotations
 
+import logging
 import subprocess
 import sys
 
 import numpy as np
+import pytest
 from sofia_detector.detect import detect
-from sofia_detector.warmup import WARM_BOX_M, warm_scene
+from sofia_detector.pick import PickParams
+from sofia_detector.warmup import WARM_BOX_M, warm_scene, warm_up
 from sofia_schemas import Board
+from sofia_schemas.messages import Detection
 
 
 def test_warm_scene_is_a_box_the_detector_finds() -> None:
@@ -50,3 +54,15 @@ def test_warm_up_imports_what_a_callback_would_import_holding_the_gil() -> None:
     before, after = out.stdout.splitlines()
     assert before == "[False]", "imported before the warm-up: this test no longer shows anything"
     assert after == "[True] True"
+
+
+def test_a_failing_warm_up_is_logged_not_raised(caplog: pytest.LogCaptureFixture) -> None:
+    """The service starts even when the warm-up cannot run (here: its detection raises)."""
+
+    def broken(payload: bytes, camera: bool, key: str) -> Detection:
+        raise ValueError("no such thing")
+
+    with caplog.at_level(logging.WARNING, logger="sofia_detector.warmup"):
+        took = warm_up(Board.default(), broken, PickParams())
+    assert took >= 0
+    assert "warm-up failed (ValueError: no such thing)" in caplog.text

@@ -74,13 +74,20 @@ def warm_payloads(board: Board) -> tuple[bytearray, bytes]:
 def warm_up(board: Board, detect_payload: Callable[[bytes, bool, str], Detection], pick: PickParams) -> float:
     """Run the service's per-cloud path once on :func:`warm_payloads`, publishing nothing: decode
     and detect (``detect_payload``, the service's), the messages' JSON, the pick, a flange pose's
-    decode. Seconds taken."""
+    decode. Seconds taken. A failure is logged, never raised: the service starts anyway, and only
+    its first cloud is slower."""
     t0 = time.perf_counter()
-    cloud, flange = warm_payloads(board)
-    det = detect_payload(bytes(cloud), False, "warm-up")
-    target = first_pick(det, pick)
-    det.to_json_bytes(), target.to_json_bytes() if target is not None else None
-    decode_flange(flange).matrix()
+    try:
+        cloud, flange = warm_payloads(board)
+        det = detect_payload(bytes(cloud), False, "warm-up")
+        det.to_json_bytes()
+        target = first_pick(det, pick)
+        if target is not None:
+            target.to_json_bytes()
+        decode_flange(flange).matrix()
+    except Exception as e:  # a warm-up must not keep the service from starting
+        log.warning("warm-up failed (%s: %s); the first cloud will take longer", type(e).__name__, e)
+        return time.perf_counter() - t0
     took = time.perf_counter() - t0
     log.debug("warm-up: %s, %d objects, pick %s, %.0f ms", det.status, len(det.objects), target is not None,
               took * 1e3)  # fmt: skip

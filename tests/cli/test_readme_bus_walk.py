@@ -81,10 +81,16 @@ def run_until_stopped(cwd: Path, env: dict[str, str], argv: list[str], first_lin
     return "".join(printed)
 
 
-def stop(proc: subprocess.Popen[str], what: str) -> None:
-    """Ctrl-C; it must exit 0."""
+def stop(proc: subprocess.Popen[str], what: str, log: Path | None = None) -> None:
+    """Ctrl-C; it must exit 0 within a minute (else it is killed, and the end of ``log`` told)."""
     proc.send_signal(signal.SIGINT)
-    proc.wait(timeout=60)
+    try:
+        proc.wait(timeout=60)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        proc.wait(timeout=10)
+        tail = log.read_text(errors="replace")[-2000:] if log is not None and log.exists() else ""
+        raise AssertionError(f"{what}: still running 60 s after Ctrl-C; its log ends:\n{tail}") from None
     assert proc.returncode == 0, f"{what}: exit {proc.returncode} on Ctrl-C"
 
 
@@ -112,8 +118,9 @@ def test_the_readme_bus_commands_run_as_written_against_sofia_up(walk_dir: Path)
     try:
         for service in ("detector", "calibrator", "gripper"):
             wait_healthy(walk_dir, service)
+        loop_log = walk_dir / "loop.out"  # a file, not pipes nobody reads: they could fill and block it
         loop = start(
-            walk_dir, env, "replay", "play", "var/recordings/scenes.mcap", "--loop"
+            walk_dir, env, "replay", "play", "var/recordings/scenes.mcap", "--loop", log=loop_log
         )  # as "Using it" says
         try:
             for n, argv in commands:
@@ -133,7 +140,7 @@ def test_the_readme_bus_commands_run_as_written_against_sofia_up(walk_dir: Path)
                 if r.returncode != 0:
                     failed.append(f"{where} -> exit {r.returncode}: {(r.stderr or r.stdout).strip()[-400:]}")
         finally:
-            stop(loop, "replay play --loop")
+            stop(loop, "replay play --loop", loop_log)
     finally:
-        stop(up, "sofia up")
+        stop(up, "sofia up", walk_dir / "up.out")
     assert not failed, "\n".join(failed)

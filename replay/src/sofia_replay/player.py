@@ -239,13 +239,10 @@ class Player:
             clock = PlayClock(o.rate)
             while not stop.is_set():
                 published_before = r.published
-                first_ns = last_ns = None
                 for m in self._messages():
                     now = time.monotonic()
-                    first_ns = m.log_time_ns if first_ns is None else first_ns
-                    last_ns = m.log_time_ns
                     if not o.fast:
-                        delay = clock.delay_s(m.log_time_ns, now)
+                        delay = clock.delay_s(m.topic, m.log_time_ns, now)
                         r.late_resyncs = clock.resyncs
                         if delay > 0 and stop.wait(delay):
                             break
@@ -274,7 +271,7 @@ class Player:
                         log.warning("nothing to play in %s within the window and topics given", self.path)
                         break
                     if o.loop and (o.max_loops is None or r.loops < o.max_loops):
-                        clock.next_loop(first_ns, last_ns, r.published - published_before)
+                        clock.next_loop()
                         continue
                 break
         finally:

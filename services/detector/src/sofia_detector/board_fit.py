@@ -6,6 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from sofia_schemas import Board
+from sofia_schemas.transforms import invert
 
 from .outline import Outline, fit_outline, grid_boundary, largest_component
 from .params import DetectorParams
@@ -34,6 +35,11 @@ class BoardFit:
     plane: PlaneFit
     outline: Outline | None
     m_coarse: np.ndarray
+
+    @property
+    def T_board_plane(self) -> np.ndarray:
+        """(4, 4) the plane frame in the measured board frame."""
+        return invert(self.T_base_board) @ self.T_base_plane  # type: ignore[no-any-return]
 
 
 def _drops(low: np.ndarray, r: np.ndarray, c: np.ndarray, reach: int, steps_xy: np.ndarray) -> np.ndarray:

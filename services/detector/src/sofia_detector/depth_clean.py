@@ -102,6 +102,22 @@ def chroma(rgb: np.ndarray) -> np.ndarray:
     return np.concatenate([3.0 * x / s, 0.5 * np.log(s)], axis=-1)
 
 
+def median_chroma(rgb: np.ndarray, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
+    """(4,) :func:`chroma` of the median colour of the pixels (rows, cols) (n,) of ``rgb`` (h, w, 3)
+    uint8: an object's own colour."""
+    return chroma(median(rgb[rows, cols].astype(np.float64)))
+
+
+def label_means(labels: np.ndarray, values: np.ndarray, n: int) -> np.ndarray:
+    """(n + 1, k) float64 mean of ``values`` (m, k) per label of ``labels`` (m,) int in 0..n (0 for
+    a label without values)."""
+    counts = np.bincount(labels, minlength=n + 1).astype(np.float64)
+    sums = np.stack(
+        [np.bincount(labels, weights=values[:, c], minlength=n + 1) for c in range(values.shape[1])], axis=1
+    )
+    return sums / np.maximum(counts, 1.0)[:, None]  # type: ignore[no-any-return]
+
+
 def colour_distance(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Distance of :func:`chroma` features a (..., 4) and b (..., 4)."""
     d = a - b
@@ -123,10 +139,7 @@ def bridge(
         return labels, n
     r, c = where(labels)
     lab = labels[r, c]
-    feat = chroma(rgb[r, c])
-    counts = np.bincount(lab, minlength=n + 1).astype(np.float32)
-    sums = np.stack([np.bincount(lab, weights=feat[:, k], minlength=n + 1) for k in range(4)], axis=1)
-    mean = sums / np.maximum(counts, 1)[:, None]
+    mean = label_means(lab, chroma(rgb[r, c]), n)
     r, c = where(invalid & grow(seeds, 2 * steps + 1))  # the missing pixels growth can reach
     if r.size == 0:
         return labels, n

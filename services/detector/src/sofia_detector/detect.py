@@ -100,7 +100,7 @@ def _objects(
     cloud: np.ndarray, rgb: np.ndarray | None, fit: BoardFit, board: Board, params: DetectorParams, lv: Levels
 ) -> list[ObjectPoints]:
     half = np.array(board.extent) / 2 + params.field_margin
-    T_board_plane = invert(fit.T_base_board) @ fit.T_base_plane
+    T_board_plane = fit.T_board_plane
     if cloud.ndim == 3:
         return list(
             organized_objects(cloud, fit.m_coarse, fit.T_base_board, T_board_plane, half, params, lv, rgb)
@@ -229,14 +229,13 @@ def detect(
     def board_white_once() -> np.ndarray | None:
         nonlocal white, need_white
         if need_white and colours is not None:
-            T_board_plane = invert(fit.T_base_board) @ fit.T_base_plane
             s = params.stride
             m, c = (
                 (fit.m_coarse, colours[::s, ::s])
                 if organized
                 else (fit.m_coarse[:, ::7, None], colours[::7, None])
             )
-            white = board_white(m, c, T_board_plane, board, params.outline_band)
+            white = board_white(m, c, fit.T_board_plane, board, params.outline_band)
             need_white = False
         return white
 

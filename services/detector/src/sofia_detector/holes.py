@@ -18,7 +18,7 @@ from __future__ import annotations
 import numpy as np
 from scipy import ndimage
 
-from .depth_clean import EIGHT, chroma, colour_distance
+from .depth_clean import EIGHT, chroma, colour_distance, median_chroma
 from .pixels import grow, median, where
 from .segment import ObjectPoints
 
@@ -86,7 +86,7 @@ def unseen_top(obj: ObjectPoints, face: np.ndarray, tol: float) -> np.ndarray:
     a_r, a_c = where(missing & grow(grid, 3))  # missing pixels next to the top
     if a_r.size == 0:
         return none
-    own = chroma(median(obj.rgb[fr[::4], fc[::4]].astype(np.float64)))
+    own = median_chroma(obj.rgb, fr[::4], fc[::4])
     if not (colour_distance(chroma(obj.rgb[a_r, a_c]), own) < tol).any():
         return none  # none of the top's colour (the board in the object's stereo shadow)
     m_r, m_c = where(missing)

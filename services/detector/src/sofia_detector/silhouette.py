@@ -17,7 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import ndimage
 
-from .depth_clean import EIGHT, chroma, colour_distance
+from .depth_clean import EIGHT, chroma, colour_distance, median_chroma
 from .holes import dlt
 from .outline import Rect, min_area_rect
 from .pixels import grow, median, where
@@ -114,7 +114,7 @@ def silhouette(
     b = change_frame(coords(cloud[top:bottom, left:right]), T_base_board)
     z = b[2]
     rows, cols = obj.rows + r0 - top, obj.cols + c0 - left
-    own = chroma(median(obj.rgb[obj.rows, obj.cols].astype(np.float64)))
+    own = median_chroma(obj.rgb, obj.rows, obj.cols)
     same = colour_distance(chroma(rgb[top:bottom, left:right]), own) < tol
     with np.errstate(invalid="ignore"):
         board = np.abs(z) < RAISED

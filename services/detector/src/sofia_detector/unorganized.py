@@ -17,7 +17,7 @@ from collections.abc import Iterator
 import numpy as np
 from scipy import ndimage
 
-from .depth_clean import EIGHT, chroma, colour_distance
+from .depth_clean import EIGHT, chroma, colour_distance, label_means
 from .params import DetectorParams
 from .plane import change_frame
 from .segment import ObjectPoints, inside
@@ -118,10 +118,7 @@ def unorganized_objects(
     labels, n = ndimage.label(counts >= 2, structure=EIGHT)
     point_labels = labels.ravel()[flat]
     if rgb is not None and n >= 2:
-        feat = chroma(rgb[idx])
-        k = np.bincount(point_labels, minlength=n + 1).astype(np.float64)
-        sums = np.stack([np.bincount(point_labels, feat[:, c], minlength=n + 1) for c in range(4)], axis=1)
-        pairs = _candidates(labels, n, sums / np.maximum(k, 1.0)[:, None], params.colour_tol)
+        pairs = _candidates(labels, n, label_means(point_labels, chroma(rgb[idx]), n), params.colour_tol)
         if pairs:  # cells where the cloud has no point at all: missing depth
             seen = np.bincount(cells(np.flatnonzero(region)), minlength=counts.size).reshape(shape) > 0
             point_labels = join_pieces(labels, n, ~seen, pairs).ravel()[flat]

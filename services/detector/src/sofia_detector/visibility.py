@@ -12,8 +12,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .depth_clean import chroma, colour_distance
-from .pixels import grow, median, shrink
+from .depth_clean import chroma, colour_distance, median_chroma
+from .pixels import grow, shrink
 from .segment import ObjectPoints
 
 OCCLUDER_ABOVE = 0.015  # a neighbour this much above the object's top is in front of it, metres
@@ -85,7 +85,7 @@ def in_view(obj: ObjectPoints, top: float, tol: float, depth: np.ndarray | None 
     near = np.isnan(h) & grow(mask, 7)
     if obj.rgb is not None and near.any():
         rgb = obj.rgb[crop]
-        own = chroma(median(obj.rgb[obj.rows[::4], obj.cols[::4]].astype(np.float64)))
+        own = median_chroma(obj.rgb, obj.rows[::4], obj.cols[::4])
         same = np.zeros_like(mask)
         same[near] = colour_distance(chroma(rgb[near]), own) < tol
         shadow = np.zeros_like(mask)

@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from sofia_detector import detect
-from sofia_detector.depth_clean import bridge, consistent, consistent_at
+from sofia_detector.depth_clean import bridge, consistent_at
 from sofia_replay.synth.realism import RealFrame, bench_frame, make_real_frame
 from sofia_schemas import Board
 
@@ -176,11 +176,18 @@ def test_flying_pixels_removed_on_the_grid() -> None:
     c = np.stack([u * 0.0012, v * 0.0012, np.full_like(u, 0.75)])  # a plane seen at 1.2 mm pixels
     c[2] += rng.normal(0, 0.001, c[2].shape).astype(np.float32)
     c[2, 20, 5:35] = rng.uniform(0.2, 0.75, 30).astype(np.float32)  # a row of flying pixels
-    keep = consistent(c, 4 * 0.0012 + 0.003)
+    keep = consistent_at(c, np.ones(c.shape[1:], bool), 4 * 0.0012 + 0.003)
     assert keep[10].all() and keep[30].all()
     assert keep[20, 5:35].mean() < 0.2
-    some = rng.random(keep.shape) < 0.3  # the sparse version agrees, borders included
+    some = rng.random(keep.shape) < 0.3  # a sparse mask keeps the same pixels, borders included
     assert np.array_equal(consistent_at(c, some, 4 * 0.0012 + 0.003), keep & some)
+    # the definition, written out: at least 2 of the 8 neighbours within delta in 3D
+    padded = np.pad(c, ((0, 0), (1, 1), (1, 1)), constant_values=np.nan)
+    near = sum(
+        np.linalg.norm(padded[:, 1 + dr : 41 + dr, 1 + dc : 41 + dc] - c, axis=0) < 4 * 0.0012 + 0.003
+        for dr in (-1, 0, 1) for dc in (-1, 0, 1) if (dr, dc) != (0, 0)
+    )  # fmt: skip
+    assert np.array_equal(keep, near >= 2)
 
 
 def test_holes_bridged_only_by_the_objects_colour() -> None:

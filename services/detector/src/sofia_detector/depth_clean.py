@@ -9,79 +9,46 @@ missing pixels of an object's colour join its pieces.
 
 from __future__ import annotations
 
-import numpy as np
-from scipy import ndimage
+import math
 
+import numpy as np
+
+from .components import label8
+from .kernels import jit
 from .pixels import grow, median, where
 
 EIGHT = np.ones((3, 3), dtype=bool)
-SHIFTS = ((0, 1), (1, 0), (1, 1), (1, -1))
-NEIGHBOURS = ((-1, -1), (-1, 0), (-1, 1), (0, -1), (0, 1), (1, -1), (1, 0), (1, 1))
-STEPS = np.array(NEIGHBOURS, dtype=np.intp)  # (8, 2) row and column steps to the neighbours
 
 
-def consistent(c: np.ndarray, delta: float, min_neighbours: int = 2) -> np.ndarray:
-    """(h, w) bool: pixels with at least ``min_neighbours`` of their 8 neighbours within ``delta``.
-
-    c: (3, h, w) float32 coordinates of an organized cloud (any frame), metres, NaN allowed.
-    delta: 3D distance, metres. NaN pixels are never consistent.
-    """
+@jit
+def _consistent_at(c: np.ndarray, mask: np.ndarray, d2: np.float32, min_neighbours: int) -> np.ndarray:
     _, h, w = c.shape
-    count = np.zeros((h, w), dtype=np.int8)
-    d2 = np.float32(delta * delta)
-    for dr, dc in SHIFTS:
-        ca, cb = (
-            (slice(0, w - 1), slice(1, w))
-            if dc == 1
-            else (slice(1, w), slice(0, w - 1))
-            if dc == -1
-            else (slice(0, w), slice(0, w))
-        )
-        ra, rb = slice(0, h - dr), slice(dr, h)
-        diff = c[:, ra, ca] - c[:, rb, cb]
-        with np.errstate(invalid="ignore"):
-            close = np.einsum("kij,kij->ij", diff, diff) < d2
-        count[ra, ca] += close
-        count[rb, cb] += close
-    return count >= min_neighbours
-
-
-def _padded(a: np.ndarray, fill: float | int) -> np.ndarray:
-    """``a`` (..., h, w) with a one-pixel frame of ``fill`` around its last two axes, flattened
-    over them: (..., (h + 2) * (w + 2))."""
-    *lead, h, w = a.shape
-    out = np.full((*lead, h + 2, w + 2), fill, dtype=a.dtype)
-    out[..., 1:-1, 1:-1] = a
-    return out.reshape(*lead, -1)
-
-
-def _neighbours(r: np.ndarray, q: np.ndarray, w: int) -> tuple[np.ndarray, np.ndarray]:
-    """Flat indices into a :func:`_padded` image (unpadded width ``w``) of the pixels (r, q) (n,):
-    (n,) the pixels themselves and (8, n) their 8 neighbours."""
-    here = (r + 1) * (w + 2) + (q + 1)
-    offsets = np.array([dr * (w + 2) + dq for dr, dq in NEIGHBOURS], dtype=np.intp)
-    return here, here[None, :] + offsets[:, None]
+    out = np.zeros((h, w), dtype=np.bool_)
+    for r in range(h):
+        for q in range(w):
+            if not mask[r, q]:
+                continue
+            x, y, z = c[0, r, q], c[1, r, q], c[2, r, q]
+            k = 0
+            for rr in range(max(r - 1, 0), min(r + 2, h)):
+                for qq in range(max(q - 1, 0), min(q + 2, w)):
+                    if rr == r and qq == q:
+                        continue
+                    dx, dy, dz = c[0, rr, qq] - x, c[1, rr, qq] - y, c[2, rr, qq] - z
+                    k += dx * dx + dy * dy + dz * dz < d2  # float32 throughout; False for NaN
+            out[r, q] = k >= min_neighbours
+    return out
 
 
 def consistent_at(c: np.ndarray, mask: np.ndarray, delta: float, min_neighbours: int = 2) -> np.ndarray:
-    """``mask`` (h, w) bool keeping only its pixels that pass :func:`consistent` (computed at those
-    pixels only: cheap for sparse masks)."""
-    r, q = where(mask)
-    if r.size == 0:
-        return mask
-    h, w = mask.shape
-    rr, qq = r + STEPS[:, :1], q + STEPS[:, 1:]  # (8, n) the neighbours
-    inside = (rr >= 0) & (rr < h) & (qq >= 0) & (qq < w)
-    around = np.minimum(np.maximum(rr, 0), h - 1) * w + np.minimum(np.maximum(qq, 0), w - 1)
-    flat = c.reshape(3, -1)
-    diff = flat[:, around] - flat[:, None, r * w + q]  # (3, 8, n)
-    with np.errstate(invalid="ignore"):
-        close = np.einsum("kmn,kmn->mn", diff, diff) < np.float32(delta * delta)
-    close &= inside
-    out = np.zeros_like(mask)
-    keep = np.count_nonzero(close, axis=0) >= min_neighbours
-    out[r[keep], q[keep]] = True
-    return out
+    """``mask`` (h, w) bool keeping only its pixels with at least ``min_neighbours`` of their 8
+    neighbours within ``delta`` (3D distance, metres) of them: flying pixels go.
+
+    c: (3, h, w) float32 coordinates of an organized cloud (any frame), metres, NaN allowed (NaN
+    pixels are never within ``delta``).
+    """
+    c = np.ascontiguousarray(c, dtype=np.float32)
+    return _consistent_at(c, np.ascontiguousarray(mask), np.float32(delta * delta), min_neighbours)  # type: ignore[no-any-return]
 
 
 def pixel_spacing(m: np.ndarray, stride: int) -> float:
@@ -134,7 +101,7 @@ def bridge(
     :func:`chroma`. Returns (labels (h, w) int, n) of the joined components (grown pixels
     included).
     """
-    labels, n = ndimage.label(seeds, structure=EIGHT)
+    labels, n = label8(seeds)
     if rgb is None or n < 2 or not invalid.any():
         return labels, n
     r, c = where(labels)
@@ -143,19 +110,49 @@ def bridge(
     r, c = where(invalid & grow(seeds, 2 * steps + 1))  # the missing pixels growth can reach
     if r.size == 0:
         return labels, n
-    colour = chroma(rgb[r, c])
-    grown = _padded(labels, 0)  # flat, grown in place
-    here, around = _neighbours(r, c, labels.shape[1])
-    todo = np.ones(r.size, dtype=bool)
+    grown, joined = _grow(labels, r, c, chroma(rgb[r, c]), mean, tol, steps)
+    return label8(grown > 0) if joined else (labels, n)
+
+
+@jit
+def _grow(
+    labels: np.ndarray,
+    r: np.ndarray,
+    c: np.ndarray,
+    colour: np.ndarray,
+    mean: np.ndarray,
+    tol: float,
+    steps: int,
+) -> tuple[np.ndarray, bool]:
+    """``labels`` (h, w) int32 grown ``steps`` times into the pixels (r, c) (k,) whose :func:`chroma`
+    ``colour`` (k, 4) float32 is within ``tol`` of the ``mean`` (n + 1, 4) float64 of the largest
+    label among their 8 neighbours (all pixels of a step look at the labels before it); and
+    whether any pixel joined."""
+    h, w = labels.shape
+    grown = labels.copy()
+    todo = np.ones(r.size, dtype=np.bool_)
+    lab = np.zeros(r.size, dtype=np.int32)
+    joined = False
     for _ in range(steps):
-        lab = grown[around].max(axis=0)  # the largest label around each pixel
-        ok = todo & (lab > 0)
-        if not ok.any():
+        found = False
+        for i in range(r.size):  # the largest label around each pixel still to join
+            best = 0
+            if todo[i]:
+                for rr in range(max(r[i] - 1, 0), min(r[i] + 2, h)):
+                    for cc in range(max(c[i] - 1, 0), min(c[i] + 2, w)):
+                        best = max(best, grown[rr, cc])  # the pixel itself is 0 while it waits
+            lab[i] = best
+            found |= best > 0
+        if not found:
             break
-        ok[ok] = colour_distance(colour[ok], mean[lab[ok]]) < tol
-        grown[here[ok]] = lab[ok]
-        todo &= ~ok
-    if todo.all():  # nothing joined
-        return labels, n
-    inner = grown.reshape(labels.shape[0] + 2, -1)[1:-1, 1:-1]
-    return ndimage.label(inner > 0, structure=EIGHT)
+        for i in range(r.size):
+            if lab[i] > 0:
+                d2 = 0.0
+                for j in range(4):
+                    d = np.float64(colour[i, j]) - mean[lab[i], j]
+                    d2 += d * d
+                if math.sqrt(d2) < tol:  # colour_distance
+                    grown[r[i], c[i]] = lab[i]
+                    todo[i] = False
+                    joined = True
+    return grown, joined

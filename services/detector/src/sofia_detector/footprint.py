@@ -12,9 +12,9 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy import ndimage
 
 from .caps import fit_cone, fit_cone_apex, fit_top
+from .components import label8
 from .holes import unseen_top
 from .outline import min_area_rect
 from .params import DetectorParams
@@ -84,7 +84,7 @@ def _solid(obj: ObjectPoints, subset: np.ndarray) -> np.ndarray:
         return subset
     grid = np.zeros(obj.shape, dtype=bool)
     grid[obj.rows[subset], obj.cols[subset]] = True
-    labels, n = ndimage.label(grid, structure=np.ones((3, 3), dtype=bool))
+    labels, n = label8(grid)
     if n < 2:
         return subset
     sizes = np.bincount(labels.ravel())

@@ -16,9 +16,10 @@ apart from the top).
 from __future__ import annotations
 
 import numpy as np
-from scipy import ndimage
 
-from .depth_clean import EIGHT, chroma, colour_distance, median_chroma
+from .components import label8_jit, max_filter_jit
+from .depth_clean import chroma, colour_distance, median_chroma
+from .kernels import jit
 from .pixels import grow, median, where
 from .segment import ObjectPoints
 
@@ -67,6 +68,43 @@ def pixel_to_plane(rows: np.ndarray, cols: np.ndarray, xy: np.ndarray) -> np.nda
     return dlt(np.column_stack([cols, rows]).astype(np.float64), np.asarray(xy, dtype=np.float64))
 
 
+@jit
+def _patches(
+    grid: np.ndarray, same: np.ndarray, h: np.ndarray, raised: float, lo: float, hi: float, reach: int
+) -> np.ndarray:
+    """(h, w) bool: the pixels of ``same`` (h, w) bool joined to the top ``grid`` (h, w) bool through
+    ``same`` whose patch is bordered (within ``reach`` pixels; a pixel bordering two patches counts
+    for the later one) by the top or missing depth. Bordered by pixels with depth, the patch must
+    have at most :data:`OFF_TOP` of those more than ``raised`` above the board off the top and its
+    band of heights ``[lo, hi]``, and at most :data:`BOARD_SEEN` of its border on the board (within
+    ``raised`` of it). h: (h, w) float32 heights above the board, NaN where missing; ``raised``,
+    ``lo``, ``hi`` float32, metres."""
+    labels, n_all = label8_jit(grid | same)
+    joined = np.zeros(n_all + 1, dtype=np.bool_)
+    for r in range(grid.shape[0]):
+        for c in range(grid.shape[1]):
+            if grid[r, c]:
+                joined[labels[r, c]] = True
+    filled = same & joined.take(labels)
+    parts, n = label8_jit(filled)
+    near = max_filter_jit(parts, reach)  # the patch a pixel borders
+    total = np.zeros(n + 1, dtype=np.int64)
+    up, off, on_board = total.copy(), total.copy(), total.copy()
+    for r in range(grid.shape[0]):
+        for c in range(grid.shape[1]):
+            k, z = near[r, c], h[r, c]
+            if k == 0 or filled[r, c]:
+                continue
+            total[k] += 1
+            if z > raised:
+                up[k] += 1
+                off[k] += not grid[r, c] and not (lo <= z <= hi)
+            on_board[k] += abs(z) < raised
+    good = (off <= OFF_TOP * up) & (on_board <= BOARD_SEEN * total)
+    good[0] = False
+    return good.take(parts)
+
+
 def unseen_top(obj: ObjectPoints, face: np.ndarray, tol: float) -> np.ndarray:
     """(k, 2) board-frame xy (metres) of the missing-depth pixels of the top's colour that join the
     top ``face`` ((n,) bool over the object's points) on the pixel grid and are not bordered by the
@@ -100,30 +138,10 @@ def unseen_top(obj: ObjectPoints, face: np.ndarray, tol: float) -> np.ndarray:
     b_r, b_c = 2 * b_r, 2 * b_c
     if b_r.size and np.mean(colour_distance(chroma(obj.rgb[b_r, b_c]), own) < tol) > BOARD_LIKE:
         return none  # the object stands on its own colour
-    labels, _ = ndimage.label(grid | same, structure=EIGHT)
-    joined = np.zeros(labels.max() + 1, dtype=bool)
-    joined[labels[fr, fc]] = True
-    joined[0] = False
-    filled = same & joined[labels]
-    # each patch of them: what borders it must be the top or more missing depth (not the board with
-    # depth: a side face; not pixels with depth below the top's height: a cone's flank or a side).
-    # Pixels at the top's height are the top even when not in ``face`` (pieces of it that missing
-    # depth cut off from the rest)
-    parts, n = ndimage.label(filled, structure=EIGHT)
-    near = ndimage.maximum_filter(parts, size=2 * BORDER_PX + 1)  # the patch a pixel borders
     face_h = obj.b[2, face]
     lo, mid = float(face_h.min()), float(median(face_h))
-    with np.errstate(invalid="ignore"):
-        border = (near > 0) & ~filled
-        raised = border & (h > RAISED)
-        flat = border & (np.abs(h) < RAISED)
-        level = (h >= lo) & (h <= 2 * mid - lo)  # the top's band of heights
-    total = np.bincount(near[border], minlength=n + 1)
-    off = np.bincount(near[raised & ~grid & ~level], minlength=n + 1)
-    on_board = np.bincount(near[flat], minlength=n + 1)
-    good = (off <= OFF_TOP * np.bincount(near[raised], minlength=n + 1)) & (on_board <= BOARD_SEEN * total)
-    good[0] = False
-    hr, hc = where(good[parts])
+    f32 = np.float32
+    hr, hc = where(_patches(grid, same, h, f32(RAISED), f32(lo), f32(2 * mid - lo), BORDER_PX))
     if hr.size < MIN_SHARE * fr.size:
         return none
     k = max(1, fr.size // SAMPLE)

@@ -12,8 +12,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import ndimage
 
+from .components import label8
 from .kernels import hull_indices, least_area_box
 
 
@@ -53,7 +53,7 @@ class Rect:
 
 def largest_component(mask: np.ndarray) -> np.ndarray:
     """The largest 8-connected component of a 2-D boolean mask (empty mask in, empty mask out)."""
-    labels, n = ndimage.label(mask, structure=np.ones((3, 3), dtype=bool))
+    labels, n = label8(mask)
     if n == 0:
         return mask
     sizes = np.bincount(labels.ravel())

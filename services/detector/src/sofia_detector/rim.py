@@ -14,8 +14,8 @@ rectangle than to any circle, which tells boxes from cylinders. When the top its
 from __future__ import annotations
 
 import numpy as np
-from scipy import ndimage
 
+from .components import fill_holes
 from .outline import Rect
 from .pixels import grow, median, where
 from .segment import ObjectPoints
@@ -50,7 +50,7 @@ def rim_xy(obj: ObjectPoints, face: np.ndarray, top: float, drop: float) -> tupl
     r1, c1 = min(int(fr.max()) + 2, obj.shape[0]), min(int(fc.max()) + 2, obj.shape[1])
     grid = np.zeros((r1 - r0, c1 - c0), dtype=bool)
     grid[fr - r0, fc - c0] = True
-    grid = ndimage.binary_fill_holes(grid)
+    grid = fill_holes(grid)
     h = np.full((r1 - r0 + 2, c1 - c0 + 2), np.nan, dtype=np.float32)
     h[1:-1, 1:-1] = obj.window[2, r0:r1, c0:c1]
     with np.errstate(invalid="ignore"):

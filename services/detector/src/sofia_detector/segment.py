@@ -12,7 +12,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import ndimage
 
-from .depth_clean import EIGHT, bridge, consistent, consistent_at
+from .components import label8
+from .depth_clean import bridge, consistent_at
 from .outline import grid_boundary, hull
 from .params import DetectorParams
 from .pixels import where
@@ -70,7 +71,7 @@ class Levels:
     """Thresholds measured on the board of one cloud (metres).
 
     seed: height of a coarse object pixel. point: height of a full-resolution object point.
-    delta, delta_coarse: neighbour distance of :func:`.depth_clean.consistent` at full resolution
+    delta, delta_coarse: neighbour distance of :func:`.depth_clean.consistent_at` at full resolution
     and on the coarse grid. colour_tol: colour distance of holes bridged into an object.
     """
 
@@ -127,8 +128,8 @@ def organized_objects(
         b = change_frame(coords(points_base[r0:r1, c0:c1]), T_base_board)
         with np.errstate(invalid="ignore"):
             mask = (b[2] > levels.point) & (b[2] < params.max_height)
-        mask &= consistent(b, levels.delta)
-        wl, n_pieces = ndimage.label(mask, structure=EIGHT)
+        mask = consistent_at(b, mask, levels.delta)
+        wl, n_pieces = label8(mask)
         hits = wl[rows - r0, cols - c0]
         hits = hits[hits > 0]
         if hits.size == 0:

@@ -17,6 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import ndimage
 
+from .components import fill_holes, label8
 from .depth_clean import EIGHT, chroma, colour_distance, median_chroma
 from .holes import dlt
 from .outline import Rect, min_area_rect
@@ -72,7 +73,7 @@ def _cells(xy: np.ndarray, lo: np.ndarray, shape: tuple[int, int]) -> np.ndarray
     idx = np.floor((xy - lo) / CELL).astype(np.intp)
     grid = np.zeros(shape, dtype=bool)
     grid[idx[:, 0], idx[:, 1]] = True
-    return ndimage.binary_fill_holes(ndimage.binary_closing(grid, EIGHT, iterations=2, border_value=0))
+    return fill_holes(ndimage.binary_closing(grid, EIGHT, iterations=2, border_value=0))
 
 
 def footprint(P: np.ndarray, rows: np.ndarray, cols: np.ndarray, height: float) -> np.ndarray:
@@ -121,7 +122,7 @@ def silhouette(
     around = board & grow(same, 9)
     if np.count_nonzero(same & around) > BOARD_LIKE * max(int(np.count_nonzero(around)), 1):
         return None  # the object stands on its own colour
-    labels, _ = ndimage.label(same & ~board, structure=EIGHT)
+    labels, _ = label8(same & ~board)
     ids = np.unique(labels[rows, cols])
     region = np.isin(labels, ids[ids > 0])
     region[rows, cols] = True

@@ -17,6 +17,7 @@ from collections.abc import Iterator
 import numpy as np
 from scipy import ndimage
 
+from .components import label8
 from .depth_clean import EIGHT, chroma, colour_distance, label_means
 from .params import DetectorParams
 from .plane import change_frame
@@ -115,7 +116,7 @@ def unorganized_objects(
 
     flat = cells(idx)
     counts = np.bincount(flat, minlength=shape[0] * shape[1]).reshape(shape)
-    labels, n = ndimage.label(counts >= 2, structure=EIGHT)
+    labels, n = label8(counts >= 2)
     point_labels = labels.ravel()[flat]
     if rgb is not None and n >= 2:
         pairs = _candidates(labels, n, label_means(point_labels, chroma(rgb[idx]), n), params.colour_tol)

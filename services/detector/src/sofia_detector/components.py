@@ -1,0 +1,131 @@
+"""Connected components and the square maximum filter of pixel grids, compiled (numba).
+
+The detector labels a dozen small grids per cloud (the coarse seeds, each object's window, its top,
+the board's outline). ``scipy.ndimage.label`` and ``maximum_filter`` cost 20-150 us per call on
+them, most of it setting up; these give the same arrays in a few microseconds: labels numbered
+1..n in the order in which a row-major scan first meets each component, as SciPy numbers them.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .kernels import jit
+
+
+@jit
+def _root(parent: np.ndarray, i: int) -> int:
+    """The root of provisional label ``i`` (path halving)."""
+    while parent[i] != i:
+        parent[i] = parent[parent[i]]
+        i = parent[i]
+    return i
+
+
+@jit
+def label8_jit(mask: np.ndarray) -> tuple[np.ndarray, int]:
+    """:func:`label8` of a C-contiguous bool mask, callable from compiled code."""
+    h, w = mask.shape
+    out = np.zeros((h, w), dtype=np.int32)
+    parent = np.zeros(h * w // 2 + w + 2, dtype=np.int32)  # at most one new label per two pixels
+    n = 0
+    for r in range(h):
+        for c in range(w):
+            if not mask[r, c]:
+                continue
+            best = 0
+            for dr, dc in ((-1, -1), (-1, 0), (-1, 1), (0, -1)):  # the neighbours already scanned
+                rr, cc = r + dr, c + dc
+                if rr < 0 or cc < 0 or cc >= w or out[rr, cc] == 0:
+                    continue
+                k = _root(parent, out[rr, cc])
+                if best == 0:
+                    best = k
+                elif k != best:  # two components meet: the older label wins
+                    lo, hi = min(k, best), max(k, best)
+                    parent[hi] = lo
+                    best = lo
+            if best == 0:
+                n += 1
+                parent[n] = n
+                best = n
+            out[r, c] = best
+    final = np.zeros(n + 1, dtype=np.int32)
+    m = 0
+    for r in range(h):
+        for c in range(w):
+            if out[r, c] > 0:
+                k = _root(parent, out[r, c])
+                if final[k] == 0:
+                    m += 1
+                    final[k] = m
+                out[r, c] = final[k]
+    return out, m
+
+
+def label8(mask: np.ndarray) -> tuple[np.ndarray, int]:
+    """(labels (h, w) int32, n): the 8-connected components of ``mask`` (h, w) bool, numbered
+    1..n as ``scipy.ndimage.label(mask, structure=np.ones((3, 3)))`` numbers them; 0 off the mask."""
+    return label8_jit(np.ascontiguousarray(mask, dtype=np.bool_))  # type: ignore[no-any-return]
+
+
+@jit
+def max_filter_jit(a: np.ndarray, k: int) -> np.ndarray:
+    """:func:`max_filter` of a C-contiguous int32 array over a (2 k + 1) square, callable from
+    compiled code."""
+    h, w = a.shape
+    out = np.zeros_like(a)
+    for r in range(h):  # each non-zero pixel raises the square around it
+        for c in range(w):
+            v = a[r, c]
+            if v == 0:
+                continue
+            for rr in range(max(r - k, 0), min(r + k + 1, h)):
+                for cc in range(max(c - k, 0), min(c + k + 1, w)):
+                    if out[rr, cc] < v:
+                        out[rr, cc] = v
+    return out
+
+
+def max_filter(a: np.ndarray, size: int) -> np.ndarray:
+    """(h, w) the largest value of ``a`` (h, w) int32 >= 0 within a ``size`` x ``size`` square (odd)
+    around each pixel, as ``scipy.ndimage.maximum_filter(a, size=size)`` (whose ``reflect`` border
+    repeats values already in the square). Its cost grows with the non-zero pixels: for labels."""
+    return max_filter_jit(np.ascontiguousarray(a, dtype=np.int32), size // 2)  # type: ignore[no-any-return]
+
+
+@jit
+def fill_holes_jit(mask: np.ndarray) -> np.ndarray:
+    """:func:`fill_holes` of a C-contiguous bool mask, callable from compiled code."""
+    h, w = mask.shape
+    outside = np.zeros((h, w), dtype=np.bool_)
+    stack = np.empty(h * w, dtype=np.int64)
+    n = 0
+    for r in range(h):  # the background on the image border
+        for c in range(w):
+            if (r == 0 or r == h - 1 or c == 0 or c == w - 1) and not mask[r, c]:
+                outside[r, c] = True
+                stack[n] = r * w + c
+                n += 1
+    while n > 0:  # and all background 4-connected to it
+        n -= 1
+        r, c = divmod(stack[n], w)
+        for rr, cc in ((r - 1, c), (r + 1, c), (r, c - 1), (r, c + 1)):
+            if 0 <= rr < h and 0 <= cc < w and not mask[rr, cc] and not outside[rr, cc]:
+                outside[rr, cc] = True
+                stack[n] = rr * w + cc
+                n += 1
+    return ~outside
+
+
+def fill_holes(mask: np.ndarray) -> np.ndarray:
+    """(h, w) bool ``mask`` (h, w) with its holes filled: the background not 4-connected to the
+    image border, as ``scipy.ndimage.binary_fill_holes(mask)``."""
+    return fill_holes_jit(np.ascontiguousarray(mask, dtype=np.bool_))  # type: ignore[no-any-return]
+
+
+def warm_components() -> None:
+    """Compile the kernels (or load them from numba's cache)."""
+    grid = np.eye(4, dtype=bool)
+    max_filter(label8(grid)[0], 3)
+    fill_holes(grid)

@@ -69,10 +69,57 @@ def chroma(rgb: np.ndarray) -> np.ndarray:
     return np.concatenate([3.0 * x / s, 0.5 * np.log(s)], axis=-1)
 
 
+# 0.5 log of a colour's sum + 24 (0..789 for uint8 colours), as :func:`chroma` computes it
+HALF_LOG = 0.5 * np.log(np.arange(1, 3 * 255 + 25, dtype=np.float32))[np.r_[0, 0 : 3 * 255 + 24]]
+F32_3, F32_8 = np.float32(3.0), np.float32(8.0)
+
+
+@jit
+def _median_u8(px: np.ndarray) -> np.ndarray:
+    """(3,) float64 median of each channel of (n, 3) uint8 colours (n >= 1), by counting."""
+    n = px.shape[0]
+    out = np.empty(3)
+    for ch in range(3):
+        counts = np.zeros(256, dtype=np.int64)
+        for i in range(n):
+            counts[px[i, ch]] += 1
+        lo_rank, hi_rank = (n - 1) // 2, n // 2  # the middle one or two, 0-based
+        seen, lo, hi = 0, -1, -1
+        for v in range(256):
+            seen += counts[v]
+            if lo < 0 and seen > lo_rank:
+                lo = v
+            if seen > hi_rank:
+                hi = v
+                break
+        out[ch] = (lo + hi) / 2
+    return out
+
+
 def median_chroma(rgb: np.ndarray, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
     """(4,) :func:`chroma` of the median colour of the pixels (rows, cols) (n,) of ``rgb`` (h, w, 3)
     uint8: an object's own colour."""
-    return chroma(median(rgb[rows, cols].astype(np.float64)))
+    return chroma(_median_u8(rgb[rows, cols]))
+
+
+@jit
+def _of_colour(px: np.ndarray, own: np.ndarray, tol: np.float32) -> np.ndarray:
+    out = np.empty(px.shape[0], dtype=np.bool_)
+    for i in range(px.shape[0]):  # chroma and colour_distance, in float32 as numpy evaluates them
+        r, g, b = np.float32(px[i, 0]) + F32_8, np.float32(px[i, 1]) + F32_8, np.float32(px[i, 2]) + F32_8
+        s = (r + g) + b
+        d0, d1, d2 = F32_3 * r / s - own[0], F32_3 * g / s - own[1], F32_3 * b / s - own[2]
+        d3 = HALF_LOG[int(s)] - own[3]
+        out[i] = np.sqrt((d0 * d0 + d1 * d1) + (d2 * d2 + d3 * d3)) < tol
+    return out
+
+
+def of_colour(px: np.ndarray, own: np.ndarray, tol: float) -> np.ndarray:
+    """(...) bool: the colours ``px`` (..., 3) uint8 within ``tol`` of ``own`` (4,) float32, a
+    :func:`chroma`: ``colour_distance(chroma(px), own) < tol``, without its temporaries."""
+    flat = np.ascontiguousarray(px, dtype=np.uint8).reshape(-1, 3)
+    own32 = np.ascontiguousarray(own, dtype=np.float32)
+    return _of_colour(flat, own32, np.float32(tol)).reshape(px.shape[:-1])  # type: ignore[no-any-return]
 
 
 def label_means(labels: np.ndarray, values: np.ndarray, n: int) -> np.ndarray:

@@ -18,7 +18,7 @@ from __future__ import annotations
 import numpy as np
 
 from .components import label8_jit, max_filter_jit
-from .depth_clean import chroma, colour_distance, median_chroma
+from .depth_clean import median_chroma, of_colour
 from .kernels import jit
 from .pixels import grow, median, where
 from .segment import ObjectPoints
@@ -125,18 +125,18 @@ def unseen_top(obj: ObjectPoints, face: np.ndarray, tol: float) -> np.ndarray:
     if a_r.size == 0:
         return none
     own = median_chroma(obj.rgb, fr[::4], fc[::4])
-    if not (colour_distance(chroma(obj.rgb[a_r, a_c]), own) < tol).any():
+    if not of_colour(obj.rgb[a_r, a_c], own, tol).any():
         return none  # none of the top's colour (the board in the object's stereo shadow)
     m_r, m_c = where(missing)
     same = np.zeros_like(missing)
-    same[m_r, m_c] = colour_distance(chroma(obj.rgb[m_r, m_c]), own) < tol
+    same[m_r, m_c] = of_colour(obj.rgb[m_r, m_c], own, tol)
     if np.count_nonzero(same) < MIN_SHARE * fr.size:
         return none
     with np.errstate(invalid="ignore"):
         board = (np.abs(h[::2, ::2]) < RAISED) & grow(grid[::2, ::2], 9)
     b_r, b_c = where(board)
     b_r, b_c = 2 * b_r, 2 * b_c
-    if b_r.size and np.mean(colour_distance(chroma(obj.rgb[b_r, b_c]), own) < tol) > BOARD_LIKE:
+    if b_r.size and np.mean(of_colour(obj.rgb[b_r, b_c], own, tol)) > BOARD_LIKE:
         return none  # the object stands on its own colour
     face_h = obj.b[2, face]
     lo, mid = float(face_h.min()), float(median(face_h))

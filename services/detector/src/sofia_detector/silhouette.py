@@ -18,7 +18,7 @@ import numpy as np
 from scipy import ndimage
 
 from .components import fill_holes, label8
-from .depth_clean import EIGHT, chroma, colour_distance, median_chroma
+from .depth_clean import EIGHT, median_chroma, of_colour
 from .holes import dlt
 from .outline import Rect, min_area_rect
 from .pixels import grow, median, where
@@ -116,7 +116,7 @@ def silhouette(
     z = b[2]
     rows, cols = obj.rows + r0 - top, obj.cols + c0 - left
     own = median_chroma(obj.rgb, obj.rows, obj.cols)
-    same = colour_distance(chroma(rgb[top:bottom, left:right]), own) < tol
+    same = of_colour(rgb[top:bottom, left:right], own, tol)
     with np.errstate(invalid="ignore"):
         board = np.abs(z) < RAISED
     around = board & grow(same, 9)

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .depth_clean import chroma, colour_distance, median_chroma
+from .depth_clean import median_chroma, of_colour
 from .pixels import grow, shrink
 from .segment import ObjectPoints
 
@@ -87,7 +87,7 @@ def in_view(obj: ObjectPoints, top: float, tol: float, depth: np.ndarray | None 
         rgb = obj.rgb[crop]
         own = median_chroma(obj.rgb, obj.rows[::4], obj.cols[::4])
         same = np.zeros_like(mask)
-        same[near] = colour_distance(chroma(rgb[near]), own) < tol
+        same[near] = of_colour(rgb[near], own, tol)
         shadow = np.zeros_like(mask)
         shadow[:, :-1] |= mask[:, 1:]
         shadow[:, :-2] |= mask[:, 2:]

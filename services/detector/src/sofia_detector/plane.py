@@ -15,6 +15,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .kernels import jit
+
 
 @dataclass(frozen=True)
 class PlaneFit:
@@ -52,6 +54,42 @@ def change_frame(c_a: np.ndarray, T_a_f: np.ndarray) -> np.ndarray:
     return out.reshape(c_a.shape)
 
 
+@jit
+def _refits(
+    x: np.ndarray, y: np.ndarray, z: np.ndarray, thresholds: np.ndarray, min_points: int
+) -> tuple[float, float, float, float, int]:
+    """(a, b, c, rms, n_inliers) of :func:`fit_plane`; n_inliers < ``min_points`` when it fails."""
+    a, b, c = z.astype(np.float64).mean(), 0.0, 0.0
+    n_in = 0
+    for thr in thresholds:
+        M = np.zeros((3, 3))
+        rhs = np.zeros(3)
+        n_in = 0
+        for i in range(z.size):
+            xi, yi, zi = np.float64(x[i]), np.float64(y[i]), np.float64(z[i])
+            if abs(zi - (a + b * xi + c * yi)) < thr:
+                n_in += 1
+                M[0, 0] += xi * xi
+                M[0, 1] += xi * yi
+                M[0, 2] += xi
+                M[1, 1] += yi * yi
+                M[1, 2] += yi
+                rhs[0] += xi * zi
+                rhs[1] += yi * zi
+                rhs[2] += zi
+        if n_in < min_points:
+            return a, b, c, np.nan, n_in
+        M[1, 0], M[2, 0], M[2, 1], M[2, 2] = M[0, 1], M[0, 2], M[1, 2], n_in
+        b, c, a = np.linalg.solve(M, rhs)
+    sq, k = 0.0, 0
+    for i in range(z.size):
+        r = np.float64(z[i]) - (a + b * np.float64(x[i]) + c * np.float64(y[i]))
+        if abs(r) < thresholds[-1]:
+            sq += r * r
+            k += 1
+    return a, b, c, np.sqrt(sq / k) if k else np.nan, n_in
+
+
 def fit_plane(
     x: np.ndarray, y: np.ndarray, z: np.ndarray, thresholds: tuple[float, ...], min_points: int
 ) -> PlaneFit | None:
@@ -63,23 +101,14 @@ def fit_plane(
     """
     if z.size < min_points:
         return None
-    a, b, c = float(z.mean(dtype=np.float64)), 0.0, 0.0
-    n_in = 0
-    for thr in thresholds:
-        inl = np.abs(z - (a + b * x + c * y)) < thr
-        xi, yi, zi = x[inl], y[inl], z[inl]
-        n_in = xi.size
-        if n_in < min_points:
-            return None
-        sx, sy = float(xi.sum(dtype=np.float64)), float(yi.sum(dtype=np.float64))
-        sxy = float(xi @ yi)
-        M = np.array([[float(xi @ xi), sxy, sx], [sxy, float(yi @ yi), sy], [sx, sy, float(n_in)]])
-        rhs = np.array([float(xi @ zi), float(yi @ zi), float(zi.sum(dtype=np.float64))])
-        b, c, a = (float(v) for v in np.linalg.solve(M, rhs))
-    r = z - (a + b * x + c * y)
-    r = r[np.abs(r) < thresholds[-1]]
-    rms = float(np.sqrt(np.mean(r.astype(np.float64) ** 2))) if r.size else float("nan")
-    return PlaneFit((a, b, c), rms, n_in)
+    a, b, c, rms, n_in = _refits(
+        *(np.ascontiguousarray(v, dtype=np.float32) for v in (x, y, z)),
+        np.asarray(thresholds, dtype=np.float64),
+        min_points,
+    )
+    if n_in < min_points:
+        return None
+    return PlaneFit((float(a), float(b), float(c)), float(rms), int(n_in))
 
 
 def T_cfg_plane(fit: PlaneFit) -> np.ndarray:

@@ -15,7 +15,7 @@ import numpy as np
 
 from .components import label8
 from .kernels import jit
-from .pixels import grow, median, where
+from .pixels import median
 
 EIGHT = np.ones((3, 3), dtype=bool)
 
@@ -103,13 +103,19 @@ def median_chroma(rgb: np.ndarray, rows: np.ndarray, cols: np.ndarray) -> np.nda
 
 
 @jit
+def _chroma_px(px: np.ndarray) -> tuple[np.float32, np.float32, np.float32, np.float32]:
+    """:func:`chroma` of one colour (3,) uint8, in float32 as numpy evaluates it."""
+    r, g, b = np.float32(px[0]) + F32_8, np.float32(px[1]) + F32_8, np.float32(px[2]) + F32_8
+    s = (r + g) + b
+    return F32_3 * r / s, F32_3 * g / s, F32_3 * b / s, HALF_LOG[int(s)]
+
+
+@jit
 def _of_colour(px: np.ndarray, own: np.ndarray, tol: np.float32) -> np.ndarray:
     out = np.empty(px.shape[0], dtype=np.bool_)
-    for i in range(px.shape[0]):  # chroma and colour_distance, in float32 as numpy evaluates them
-        r, g, b = np.float32(px[i, 0]) + F32_8, np.float32(px[i, 1]) + F32_8, np.float32(px[i, 2]) + F32_8
-        s = (r + g) + b
-        d0, d1, d2 = F32_3 * r / s - own[0], F32_3 * g / s - own[1], F32_3 * b / s - own[2]
-        d3 = HALF_LOG[int(s)] - own[3]
+    for i in range(px.shape[0]):  # colour_distance, in float32 as numpy evaluates it
+        f0, f1, f2, f3 = _chroma_px(px[i])
+        d0, d1, d2, d3 = f0 - own[0], f1 - own[1], f2 - own[2], f3 - own[3]
         out[i] = np.sqrt((d0 * d0 + d1 * d1) + (d2 * d2 + d3 * d3)) < tol
     return out
 
@@ -151,55 +157,58 @@ def bridge(
     labels, n = label8(seeds)
     if rgb is None or n < 2 or not invalid.any():
         return labels, n
-    r, c = where(labels)
-    lab = labels[r, c]
-    mean = label_means(lab, chroma(rgb[r, c]), n)
-    r, c = where(invalid & grow(seeds, 2 * steps + 1))  # the missing pixels growth can reach
-    if r.size == 0:
-        return labels, n
-    grown, joined = _grow(labels, r, c, chroma(rgb[r, c]), mean, tol, steps)
+    grown, joined = _bridge(labels, n, np.ascontiguousarray(invalid), np.ascontiguousarray(rgb), tol, steps)
     return label8(grown > 0) if joined else (labels, n)
 
 
 @jit
-def _grow(
-    labels: np.ndarray,
-    r: np.ndarray,
-    c: np.ndarray,
-    colour: np.ndarray,
-    mean: np.ndarray,
-    tol: float,
-    steps: int,
+def _bridge(
+    labels: np.ndarray, n: int, invalid: np.ndarray, rgb: np.ndarray, tol: float, steps: int
 ) -> tuple[np.ndarray, bool]:
-    """``labels`` (h, w) int32 grown ``steps`` times into the pixels (r, c) (k,) whose :func:`chroma`
-    ``colour`` (k, 4) float32 is within ``tol`` of the ``mean`` (n + 1, 4) float64 of the largest
-    label among their 8 neighbours (all pixels of a step look at the labels before it); and
-    whether any pixel joined."""
+    """``labels`` (h, w) int32 (1..n) grown ``steps`` times into the ``invalid`` (h, w) pixels within
+    ``steps`` pixels of them whose :func:`chroma` is within ``tol`` of the mean chroma of the
+    largest label among their 8 neighbours (all pixels of a step look at the labels before it);
+    and whether any pixel joined. rgb: (h, w, 3) uint8."""
     h, w = labels.shape
+    mean = np.zeros((n + 1, 4))  # label_means of the labels' chroma
+    counts = np.zeros(n + 1)
+    for r in range(h):
+        for c in range(w):
+            if labels[r, c] > 0:
+                f = _chroma_px(rgb[r, c])
+                for j in range(4):
+                    mean[labels[r, c], j] += np.float64(f[j])
+                counts[labels[r, c]] += 1.0
+    for k in range(n + 1):
+        mean[k] /= max(counts[k], 1.0)
+    todo = np.zeros((h, w), dtype=np.bool_)  # the missing pixels growth can reach
+    for r in range(h):
+        for c in range(w):
+            if invalid[r, c]:
+                todo[r, c] = labels[
+                    max(r - steps, 0) : r + steps + 1, max(c - steps, 0) : c + steps + 1
+                ].any()
+    rs, cs = np.nonzero(todo)
     grown = labels.copy()
-    todo = np.ones(r.size, dtype=np.bool_)
-    lab = np.zeros(r.size, dtype=np.int32)
+    lab = np.zeros(rs.size, dtype=np.int32)
     joined = False
     for _ in range(steps):
         found = False
-        for i in range(r.size):  # the largest label around each pixel still to join
+        for i in range(rs.size):  # the largest label around each pixel still to join
             best = 0
-            if todo[i]:
-                for rr in range(max(r[i] - 1, 0), min(r[i] + 2, h)):
-                    for cc in range(max(c[i] - 1, 0), min(c[i] + 2, w)):
-                        best = max(best, grown[rr, cc])  # the pixel itself is 0 while it waits
-            lab[i] = best
+            if todo[rs[i], cs[i]]:
+                best = grown[max(rs[i] - 1, 0) : rs[i] + 2, max(cs[i] - 1, 0) : cs[i] + 2].max()
+            lab[i] = best  # (the pixel itself is 0 while it waits)
             found |= best > 0
         if not found:
             break
-        for i in range(r.size):
+        for i in range(rs.size):
             if lab[i] > 0:
-                d2 = 0.0
-                for j in range(4):
-                    d = np.float64(colour[i, j]) - mean[lab[i], j]
-                    d2 += d * d
-                if math.sqrt(d2) < tol:  # colour_distance
-                    grown[r[i], c[i]] = lab[i]
-                    todo[i] = False
+                f = _chroma_px(rgb[rs[i], cs[i]])
+                m = mean[lab[i]]
+                d0, d1, d2, d3 = f[0] - m[0], f[1] - m[1], f[2] - m[2], f[3] - m[3]  # float64
+                if math.sqrt((d0 * d0 + d2 * d2) + (d1 * d1 + d3 * d3)) < tol:  # as colour_distance
+                    grown[rs[i], cs[i]] = lab[i]
+                    todo[rs[i], cs[i]] = False
                     joined = True
     return grown, joined

@@ -65,7 +65,7 @@ def board_white(
     white = inside & middle & ~allowed[i, j]
     if np.count_nonzero(white) < MIN_WHITE_PIXELS:
         return None
-    return median(rgb_coarse[r[white], c[white]].astype(np.float64))
+    return median(rgb_coarse[r[white], c[white]])
 
 
 @lru_cache(maxsize=16)
@@ -116,6 +116,12 @@ def shaded_like_another(name: str, palette: tuple[tuple[str, tuple[int, int, int
     )
 
 
+@lru_cache(maxsize=16)
+def _palette_chroma(palette: tuple[tuple[str, tuple[int, int, int]], ...]) -> np.ndarray:
+    """(k, 4) :func:`.depth_clean.chroma` of the k colours of ``palette``."""
+    return chroma(np.array([p for _, p in palette], dtype=np.float64))
+
+
 def name_colour(
     rgb: np.ndarray,
     white: np.ndarray | None,
@@ -130,8 +136,7 @@ def name_colour(
     if white is not None:
         balanced = balanced * np.asarray(WHITE_REFERENCE) / np.maximum(white, 1.0)
     balanced = np.clip(balanced, 0.0, 255.0)
-    refs = chroma(np.array([p for _, p in palette], dtype=np.float64))
-    d = colour_distance(chroma(balanced)[None, :], refs)
+    d = colour_distance(chroma(balanced)[None, :], _palette_chroma(palette))
     name = palette[int(np.argmin(d))][0]
     r, g, b = (int(v) for v in np.round(balanced))
     return name, (r, g, b)

@@ -74,32 +74,10 @@ HALF_LOG = 0.5 * np.log(np.arange(1, 3 * 255 + 25, dtype=np.float32))[np.r_[0, 0
 F32_3, F32_8 = np.float32(3.0), np.float32(8.0)
 
 
-@jit
-def _median_u8(px: np.ndarray) -> np.ndarray:
-    """(3,) float64 median of each channel of (n, 3) uint8 colours (n >= 1), by counting."""
-    n = px.shape[0]
-    out = np.empty(3)
-    for ch in range(3):
-        counts = np.zeros(256, dtype=np.int64)
-        for i in range(n):
-            counts[px[i, ch]] += 1
-        lo_rank, hi_rank = (n - 1) // 2, n // 2  # the middle one or two, 0-based
-        seen, lo, hi = 0, -1, -1
-        for v in range(256):
-            seen += counts[v]
-            if lo < 0 and seen > lo_rank:
-                lo = v
-            if seen > hi_rank:
-                hi = v
-                break
-        out[ch] = (lo + hi) / 2
-    return out
-
-
 def median_chroma(rgb: np.ndarray, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
     """(4,) :func:`chroma` of the median colour of the pixels (rows, cols) (n,) of ``rgb`` (h, w, 3)
     uint8: an object's own colour."""
-    return chroma(_median_u8(rgb[rows, cols]))
+    return chroma(median(rgb[rows, cols]))
 
 
 @jit

@@ -129,11 +129,11 @@ def _colour(
     sel = np.flatnonzero(upper) if np.count_nonzero(upper) >= 3 else np.arange(obj.b.shape[1])
     sel = sel[:: max(1, sel.size // 500)]
     if obj.point_rgb is not None:  # an unorganized cloud: the upper points' colours as seen
-        return name_colour(median(obj.point_rgb[sel].astype(np.float64)), white, params.palette)
+        return name_colour(median(obj.point_rgb[sel]), white, params.palette)
     if obj.rgb is None or obj.rows is None or obj.cols is None:
         return None, None
     rows, cols = obj.rows[sel], obj.cols[sel]
-    pix = obj.rgb[rows, cols].reshape(-1, 3).astype(np.float64)
+    pix = obj.rgb[rows, cols].reshape(-1, 3)
     named = name_colour(median(pix), white, params.palette)
     if obj.window is None or not shaded_like_another(named[0], params.palette):
         return named

@@ -10,6 +10,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .kernels import jit
+
 
 def where(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(rows, cols) (n,) intp of the True (non-zero) pixels of ``mask`` (h, w), in row-major order,
@@ -39,7 +41,9 @@ def shrink(mask: np.ndarray, size: int) -> np.ndarray:
 
 def median(x: np.ndarray) -> np.ndarray:
     """Median along the first axis of x (n, ...) with n >= 1, as ``np.median(x, axis=0)`` (float
-    input keeps its dtype, integers give float64)."""
+    input keeps its dtype, integers give float64; (n, 3) uint8 colours are counted)."""
+    if x.dtype == np.uint8 and x.ndim == 2 and x.shape[1] == 3:
+        return _median_u8(np.ascontiguousarray(x))  # type: ignore[no-any-return]
     if x.dtype.kind != "f":
         x = x.astype(np.float64)
     n = x.shape[0]
@@ -48,3 +52,25 @@ def median(x: np.ndarray) -> np.ndarray:
         return np.partition(x, h, axis=0)[h]  # type: ignore[no-any-return]
     part = np.partition(x, (h - 1, h), axis=0)
     return (part[h - 1] + part[h]) / 2  # type: ignore[no-any-return]
+
+
+@jit
+def _median_u8(px: np.ndarray) -> np.ndarray:
+    """(3,) float64 median of each channel of (n, 3) uint8 colours (n >= 1), by counting."""
+    n = px.shape[0]
+    out = np.empty(3)
+    for ch in range(3):
+        counts = np.zeros(256, dtype=np.int64)
+        for i in range(n):
+            counts[px[i, ch]] += 1
+        lo_rank, hi_rank = (n - 1) // 2, n // 2  # the middle one or two, 0-based
+        seen, lo, hi = 0, -1, -1
+        for v in range(256):
+            seen += counts[v]
+            if lo < 0 and seen > lo_rank:
+                lo = v
+            if seen > hi_rank:
+                hi = v
+                break
+        out[ch] = (lo + hi) / 2
+    return out

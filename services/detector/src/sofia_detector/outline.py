@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .components import label8
-from .kernels import hull_indices, least_area_box
+from .kernels import hull_indices, jit, least_area_box
 
 
 @dataclass(frozen=True)
@@ -61,20 +61,34 @@ def largest_component(mask: np.ndarray) -> np.ndarray:
     return labels == int(np.argmax(sizes))
 
 
+@jit
+def _boundary(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    h, w = mask.shape
+    first_c, last_c = np.full(h, -1), np.full(h, -1)
+    first_r, last_r = np.full(w, -1), np.full(w, -1)
+    for r in range(h):
+        for c in range(w):
+            if mask[r, c]:
+                if first_c[r] < 0:
+                    first_c[r] = c
+                last_c[r] = c
+                if first_r[c] < 0:
+                    first_r[c] = r
+                last_r[c] = r
+    rows, cols = np.flatnonzero(first_c >= 0), np.flatnonzero(first_r >= 0)
+    return (
+        np.concatenate((rows, rows, first_r[cols], last_r[cols])),
+        np.concatenate((first_c[rows], last_c[rows], cols, cols)),
+    )
+
+
 def grid_boundary(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Row/column extremes of a 2-D mask: every vertex of its convex hull is among them.
 
     Returns (rows (k,), cols (k,)) int indices of the first and last True cell of every non-empty
-    row and column.
+    row, then of every non-empty column.
     """
-    h, w = mask.shape
-    rows = np.flatnonzero(mask.any(axis=1))
-    cols = np.flatnonzero(mask.any(axis=0))
-    first_c = np.argmax(mask, axis=1)[rows]
-    last_c = w - 1 - np.argmax(mask[:, ::-1], axis=1)[rows]
-    first_r = np.argmax(mask, axis=0)[cols]
-    last_r = h - 1 - np.argmax(mask[::-1], axis=0)[cols]
-    return np.concatenate([rows, rows, first_r, last_r]), np.concatenate([first_c, last_c, cols, cols])
+    return _boundary(np.ascontiguousarray(mask, dtype=np.bool_))  # type: ignore[no-any-return]
 
 
 def hull(xy: np.ndarray) -> np.ndarray:

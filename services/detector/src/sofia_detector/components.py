@@ -23,6 +23,17 @@ def _root(parent: np.ndarray, i: int) -> int:
 
 
 @jit
+def _union(parent: np.ndarray, i: int, j: int) -> int:
+    """Join the trees of provisional labels ``i`` and ``j`` under the older root; returns it."""
+    i, j = _root(parent, i), _root(parent, j)
+    if i < j:
+        parent[j] = i
+        return i
+    parent[i] = j
+    return j
+
+
+@jit
 def label8_jit(mask: np.ndarray) -> tuple[np.ndarray, int]:
     """:func:`label8` of a C-contiguous bool mask, callable from compiled code."""
     h, w = mask.shape
@@ -33,23 +44,26 @@ def label8_jit(mask: np.ndarray) -> tuple[np.ndarray, int]:
         for c in range(w):
             if not mask[r, c]:
                 continue
-            best = 0
-            for dr, dc in ((-1, -1), (-1, 0), (-1, 1), (0, -1)):  # the neighbours already scanned
-                rr, cc = r + dr, c + dc
-                if rr < 0 or cc < 0 or cc >= w or out[rr, cc] == 0:
-                    continue
-                k = _root(parent, out[rr, cc])
-                if best == 0:
-                    best = k
-                elif k != best:  # two components meet: the older label wins
-                    lo, hi = min(k, best), max(k, best)
-                    parent[hi] = lo
-                    best = lo
-            if best == 0:
+            # the neighbours already scanned: a b c above, d left. b touches all of a, c and d
+            up = r > 0
+            b = out[r - 1, c] if up else 0
+            if b:
+                out[r, c] = b
+                continue
+            a = out[r - 1, c - 1] if up and c > 0 else 0
+            cc = out[r - 1, c + 1] if up and c < w - 1 else 0
+            d = out[r, c - 1] if c > 0 else 0
+            if cc:
+                left = a if a else d  # a and d touch each other
+                out[r, c] = _union(parent, cc, left) if left else cc
+            elif a:
+                out[r, c] = a
+            elif d:
+                out[r, c] = d
+            else:
                 n += 1
                 parent[n] = n
-                best = n
-            out[r, c] = best
+                out[r, c] = n
     final = np.zeros(n + 1, dtype=np.int32)
     m = 0
     for r in range(h):

@@ -79,30 +79,42 @@ def _patches(
     band of heights ``[lo, hi]``, and at most :data:`BOARD_SEEN` of its border on the board (within
     ``raised`` of it). h: (h, w) float32 heights above the board, NaN where missing; ``raised``,
     ``lo``, ``hi`` float32, metres."""
+    rows, cols = grid.shape
     labels, n_all = label8_jit(grid | same)
     joined = np.zeros(n_all + 1, dtype=np.bool_)
-    for r in range(grid.shape[0]):
-        for c in range(grid.shape[1]):
+    filled = np.zeros((rows, cols), dtype=np.bool_)
+    for r in range(rows):
+        for c in range(cols):
             if grid[r, c]:
                 joined[labels[r, c]] = True
-    filled = same & joined.take(labels)
+    for r in range(rows):
+        for c in range(cols):
+            filled[r, c] = same[r, c] and joined[labels[r, c]]
     parts, n = label8_jit(filled)
     near = max_filter_jit(parts, reach)  # the patch a pixel borders
     total = np.zeros(n + 1, dtype=np.int64)
     up, off, on_board = total.copy(), total.copy(), total.copy()
-    for r in range(grid.shape[0]):
-        for c in range(grid.shape[1]):
-            k, z = near[r, c], h[r, c]
+    for r in range(rows):
+        for c in range(cols):
+            k = near[r, c]
             if k == 0 or filled[r, c]:
                 continue
+            z = h[r, c]
             total[k] += 1
             if z > raised:
                 up[k] += 1
-                off[k] += not grid[r, c] and not (lo <= z <= hi)
-            on_board[k] += abs(z) < raised
-    good = (off <= OFF_TOP * up) & (on_board <= BOARD_SEEN * total)
-    good[0] = False
-    return good.take(parts)
+                if not grid[r, c] and not (lo <= z <= hi):
+                    off[k] += 1
+            if abs(z) < raised:
+                on_board[k] += 1
+    good = np.zeros(n + 1, dtype=np.bool_)
+    for k in range(1, n + 1):
+        good[k] = off[k] <= OFF_TOP * up[k] and on_board[k] <= BOARD_SEEN * total[k]
+    out = np.zeros((rows, cols), dtype=np.bool_)
+    for r in range(rows):
+        for c in range(cols):
+            out[r, c] = good[parts[r, c]]
+    return out
 
 
 def unseen_top(obj: ObjectPoints, face: np.ndarray, tol: float) -> np.ndarray:

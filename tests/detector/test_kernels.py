@@ -98,24 +98,57 @@ def test_no_edge_within_max_yaw_gives_yaw_zero() -> None:
     assert rect.yaw == pytest.approx(0.6) and np.allclose(rect.size, 1.0)
 
 
-def test_warm_kernels_compiles_what_detection_calls() -> None:
-    """After the warm-up, a detection's calls find their compiled signature (none is compiled during
-    a detection): one signature each."""
-    from sofia_detector import kernels
+def _dispatchers() -> dict[str, object]:
+    """Every numba-compiled function of the detector package, by module.name."""
+    import importlib
+    import pkgutil
+
+    import sofia_detector
+    from numba.core.registry import CPUDispatcher
+
+    out = {}
+    for info in pkgutil.iter_modules(sofia_detector.__path__):
+        mod = importlib.import_module(f"sofia_detector.{info.name}")
+        for name, f in vars(mod).items():
+            if isinstance(f, CPUDispatcher) and f.py_func.__module__ == mod.__name__:
+                out[f"{info.name}.{name}"] = f
+    return out
+
+
+def test_compile_kernels_compiles_what_detection_calls() -> None:
+    """After the warm-up, detections find every compiled signature they call (none is compiled
+    during a detection): organized clouds with colours and missing depth (a dark object's holes, the
+    invalid band), the same flattened, and a cloud without colours."""
     from sofia_detector.detect import detect
+    from sofia_detector.warmup import compile_kernels, warm_scene
     from sofia_schemas import Board
 
-    kernels.warm_kernels()
-    entry_points = [kernels.hull_indices, kernels.least_area_box, kernels.cone_gauss_newton]
-    assert all(len(f.signatures) == 1 for f in entry_points)
+    compile_kernels()
+    kernels_by_name = _dispatchers()
+    assert len(kernels_by_name) >= 15, sorted(kernels_by_name)
+    helpers = {
+        "components._root",
+        "components._union",
+        "depth_clean._chroma_px",
+        "kernels._turn",
+        "kernels._solve4",
+    }
+    before = {name: len(f.signatures) for name, f in kernels_by_name.items()}  # type: ignore[attr-defined]
+    assert all(n >= 1 for name, n in before.items() if name not in helpers), before
     board = Board.default()
-    u, v = np.meshgrid(np.linspace(-0.3, 0.3, 160), np.linspace(-0.25, 0.25, 120))
-    z = np.where((np.abs(u - 0.05) < 0.02) & (np.abs(v) < 0.03), 0.04, 0.0)
-    r = np.hypot(u + 0.1, v)  # and a cone, whose apex is fitted
-    z = np.where(r < 0.03, 0.06 * (1 - r / 0.03), z)
-    cloud = np.stack([u + board.center[0], v + board.center[1], z + board.surface_z], axis=-1)
-    assert detect(cloud.astype(np.float32), board).status == "ok"  # the board and the box: both rectangles
-    assert all(len(f.signatures) == 1 for f in entry_points)
+    points, rgb = warm_scene(board)
+    holed = points.copy()
+    holed[200:260, 300:340] = np.nan  # missing depth on the box and the board around it
+    holed[:, :40] = np.nan  # the band the second imager does not see
+    dark = rgb.copy()
+    dark[200:260, 300:340] = (20, 20, 25)
+    for cloud, colours in ((points, rgb), (holed, dark), (holed, None)):
+        assert detect(cloud, board, rgb=colours).status in ("ok", "no_object")
+        ok = np.isfinite(cloud).all(axis=-1)
+        flat_rgb = None if colours is None else colours[ok]
+        assert detect(cloud[ok], board, rgb=flat_rgb).status in ("ok", "no_object")
+    after = {name: len(f.signatures) for name, f in kernels_by_name.items()}  # type: ignore[attr-defined]
+    assert after == before
 
 
 def test_cone_gauss_newton_finds_the_apex_from_one_flank() -> None:

@@ -136,10 +136,3 @@ def fill_holes(mask: np.ndarray) -> np.ndarray:
     """(h, w) bool ``mask`` (h, w) with its holes filled: the background not 4-connected to the
     image border, as ``scipy.ndimage.binary_fill_holes(mask)``."""
     return fill_holes_jit(np.ascontiguousarray(mask, dtype=np.bool_))  # type: ignore[no-any-return]
-
-
-def warm_components() -> None:
-    """Compile the kernels (or load them from numba's cache)."""
-    grid = np.eye(4, dtype=bool)
-    max_filter(label8(grid)[0], 3)
-    fill_holes(grid)

@@ -69,7 +69,7 @@ def pixel_to_plane(rows: np.ndarray, cols: np.ndarray, xy: np.ndarray) -> np.nda
 
 
 @jit
-def _patches(
+def bordered_patches(
     grid: np.ndarray, same: np.ndarray, h: np.ndarray, raised: float, lo: float, hi: float, reach: int
 ) -> np.ndarray:
     """(h, w) bool: the pixels of ``same`` (h, w) bool joined to the top ``grid`` (h, w) bool through
@@ -153,7 +153,7 @@ def unseen_top(obj: ObjectPoints, face: np.ndarray, tol: float) -> np.ndarray:
     face_h = obj.b[2, face]
     lo, mid = float(face_h.min()), float(median(face_h))
     f32 = np.float32
-    hr, hc = where(_patches(grid, same, h, f32(RAISED), f32(lo), f32(2 * mid - lo), BORDER_PX))
+    hr, hc = where(bordered_patches(grid, same, h, f32(RAISED), f32(lo), f32(2 * mid - lo), BORDER_PX))
     if hr.size < MIN_SHARE * fr.size:
         return none
     k = max(1, fr.size // SAMPLE)

@@ -80,6 +80,8 @@ def _refits(
         if n_in < min_points:
             return a, b, c, np.nan, n_in
         M[1, 0], M[2, 0], M[2, 1], M[2, 2] = M[0, 1], M[0, 2], M[1, 2], n_in
+        if np.linalg.det(M) == 0.0:  # the inliers lie on a line: no plane
+            return a, b, c, np.nan, -1
         b, c, a = np.linalg.solve(M, rhs)
     sq, k = 0.0, 0
     for i in range(z.size):
@@ -97,7 +99,8 @@ def fit_plane(
 
     x, y, z: (n,) float32, configured board frame, metres (finite). Starts from the flat plane at
     the mean height, then refits on the points within each of ``thresholds`` of the previous plane
-    (objects and clutter drop out). Returns None when fewer than ``min_points`` remain.
+    (objects and clutter drop out). Returns None when fewer than ``min_points`` remain or they lie
+    on a line.
     """
     if z.size < min_points:
         return None

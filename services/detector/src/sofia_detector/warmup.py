@@ -22,8 +22,13 @@ from sofia_schemas.messages import Detection
 from sofia_schemas.ros2.encoding import decode_flange
 from sofia_schemas.rosmsg import encode_flange_pose
 
+from . import holes
+from .components import fill_holes, label8, max_filter
+from .depth_clean import bridge, consistent_at, median_chroma, of_colour
 from .kernels import warm_kernels
+from .outline import grid_boundary
 from .pick import PickParams, first_pick
+from .plane import fit_plane
 
 log = logging.getLogger(__name__)
 
@@ -61,10 +66,32 @@ def warm_scene(board: Board) -> tuple[np.ndarray, np.ndarray]:
     return points, rgb
 
 
+def compile_kernels() -> None:
+    """Compile every kernel of the detector (or load it from numba's cache) for the argument types
+    a detection passes, so that no detection waits for numba (``scripts/install.sh``, the
+    detector's image, the service's warm-up)."""
+    warm_kernels()
+    two = np.zeros((6, 6), dtype=bool)
+    two[1, 1] = two[4, 4] = True  # two components
+    max_filter(label8(two)[0], 3)
+    fill_holes(two)
+    grid_boundary(two)
+    xyz = np.zeros((3, 6, 6), dtype=np.float32)
+    consistent_at(xyz, two, 0.01)
+    rgb = np.zeros((6, 6, 3), dtype=np.uint8)
+    own = median_chroma(rgb, *np.nonzero(two))
+    of_colour(rgb[two], own, 0.25)
+    bridge(two, ~two, rgb, 0.25)
+    x, y = (v.ravel().astype(np.float32) for v in np.mgrid[0:6, 0:6])
+    fit_plane(x, y, np.zeros_like(x), (0.01,), 3)
+    f32 = np.float32
+    holes.bordered_patches(two, ~two, xyz[2], f32(0.005), f32(0.0), f32(0.01), 3)
+
+
 def warm_payloads(board: Board) -> tuple[bytearray, bytes]:
     """CDR PointCloud2 of :func:`warm_scene` (in the board's frame, with colours) and CDR
     TransformStamped of an identity flange pose; the kernels compiled or loaded first."""
-    warm_kernels()
+    compile_kernels()
     points, rgb = warm_scene(board)
     cloud = pointcloud.encode_points(points, stamp_ns=1, frame_id=board.frame_id, rgb=rgb)
     pose = FlangePose(stamp_ns=1, translation=(0.0, 0.0, 0.0), rotation_xyzw=(0.0, 0.0, 0.0, 1.0))

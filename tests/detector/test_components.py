@@ -1,0 +1,98 @@
+"""The compiled pixel-grid and colour kernels give exactly what the numpy / scipy forms they replace
+give: the same labels in the same numbering, the same filters, the same colour decisions."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy import ndimage
+from sofia_detector.components import fill_holes, label8, max_filter
+from sofia_detector.depth_clean import chroma, colour_distance, of_colour
+from sofia_detector.outline import grid_boundary
+from sofia_detector.pixels import median
+from sofia_detector.plane import fit_plane
+
+EIGHT = np.ones((3, 3), dtype=bool)
+
+
+def _masks(seed: int, n: int) -> list[np.ndarray]:
+    """Random masks from sparse specks to solid blobs, one row or column thin to 60 x 60."""
+    rng = np.random.default_rng(seed)
+    out = [np.zeros((5, 7), bool), np.ones((4, 3), bool), np.eye(9, dtype=bool), np.eye(9, dtype=bool)[::-1]]
+    for k in range(n):
+        shape = (int(rng.integers(1, 60)), int(rng.integers(1, 60)))
+        mask = rng.random(shape) > rng.uniform(0.05, 0.95)
+        out.append(ndimage.binary_dilation(mask, iterations=int(rng.integers(1, 4))) if k % 3 == 0 else mask)
+    return out
+
+
+def test_label8_numbers_components_as_scipy_does() -> None:
+    for mask in _masks(0, 600):
+        expected, n = ndimage.label(mask, structure=EIGHT)
+        got, m = label8(mask)
+        assert m == n and got.dtype == expected.dtype and np.array_equal(got, expected)
+
+
+def test_label8_joins_a_u_shape_met_from_both_arms() -> None:
+    u = np.zeros((5, 7), bool)
+    u[0:4, 1] = u[0:4, 5] = u[4, 1:6] = True  # two arms met first as two labels, joined at the bottom
+    labels, n = label8(u)
+    assert n == 1 and set(np.unique(labels[u])) == {1}
+
+
+def test_max_filter_and_fill_holes_are_scipys() -> None:
+    for mask in _masks(1, 300):
+        labels, _ = ndimage.label(mask, structure=EIGHT)
+        for size in (3, 7):
+            assert np.array_equal(max_filter(labels, size), ndimage.maximum_filter(labels, size=size))
+        assert np.array_equal(fill_holes(mask), ndimage.binary_fill_holes(mask))
+
+
+def test_grid_boundary_is_the_first_and_last_cell_of_every_row_and_column() -> None:
+    for mask in _masks(2, 200):
+        rows, cols = grid_boundary(mask)
+        r_any, c_any = np.flatnonzero(mask.any(axis=1)), np.flatnonzero(mask.any(axis=0))
+        h, w = mask.shape
+        ref_rows = np.concatenate(
+            [r_any, r_any, np.argmax(mask, axis=0)[c_any], h - 1 - np.argmax(mask[::-1], axis=0)[c_any]]
+        )
+        ref_cols = np.concatenate(
+            [np.argmax(mask, axis=1)[r_any], w - 1 - np.argmax(mask[:, ::-1], axis=1)[r_any], c_any, c_any]
+        )
+        assert np.array_equal(rows, ref_rows) and np.array_equal(cols, ref_cols)
+
+
+@pytest.mark.parametrize("tol", [0.05, 0.25, 0.6])
+def test_of_colour_decides_as_the_chroma_distance_on_every_colour(tol: float) -> None:
+    """Every 3rd level of each channel (86^3 colours, ties at the tolerance included), against
+    several objects' own colours."""
+    levels = np.arange(0, 256, 3, dtype=np.uint8)
+    px = np.stack(np.meshgrid(levels, levels, levels, indexing="ij"), axis=-1).reshape(-1, 3)
+    rng = np.random.default_rng(int(tol * 100))
+    for own_rgb in ((20, 20, 25), (200, 30, 30), (240, 240, 235), tuple(rng.integers(0, 256, 3))):
+        own = chroma(np.array(own_rgb, dtype=np.float64))
+        expected = colour_distance(chroma(px), own) < tol
+        assert np.array_equal(of_colour(px, own, tol), expected)
+    assert of_colour(px.reshape(86, -1, 3), own, tol).shape == (86, 86 * 86)
+
+
+def test_colour_median_counts_as_numpys_median() -> None:
+    rng = np.random.default_rng(5)
+    for n in (1, 2, 3, 10, 11, 500, 501):
+        px = rng.integers(0, 256, (n, 3)).astype(np.uint8)
+        assert np.array_equal(median(px), np.median(px.astype(np.float64), axis=0))
+        same = np.repeat(px[:1], n, axis=0)
+        assert np.array_equal(median(same), px[0].astype(np.float64))
+
+
+def test_plane_fit_drops_what_stands_on_it_and_refuses_a_line() -> None:
+    rng = np.random.default_rng(4)
+    x, y = rng.uniform(-0.3, 0.3, 3000), rng.uniform(-0.2, 0.2, 3000)
+    z = 0.01 + 0.02 * x - 0.01 * y + rng.normal(0, 0.001, x.size)
+    z[:400] += rng.uniform(0.02, 0.1, 400)  # objects on the board
+    fit = fit_plane(*(v.astype(np.float32) for v in (x, y, z)), (0.025, 0.01, 0.006), 50)
+    assert fit is not None
+    assert np.allclose(fit.coef, (0.01, 0.02, -0.01), atol=6e-4)  # ~3.5 standard errors of a slope
+    assert fit.rms == pytest.approx(0.001, rel=0.15) and 2400 <= fit.n_inliers <= 2600
+    on_a_line = np.linspace(-0.2, 0.2, 100, dtype=np.float32)
+    assert fit_plane(on_a_line, 2 * on_a_line, np.zeros_like(on_a_line), (0.01,), 50) is None

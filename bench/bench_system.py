@@ -11,7 +11,9 @@ Baselines measured in the same run: a bare Zenoh put -> subscriber of the same 4
 processes (``bench_transport.py``: Zenoh shared memory on, as SofIA's sessions use it, and off),
 to which the plumbing's share of the latency (latency minus the detector's own ``detect()`` time,
 from each detection's ``timings_ms``) is compared; and the replayer's CPU at the same rate reading
-the file lazily (decompressing every loop) against ``--preload``.
+the file lazily (decompressing every loop) against ``--preload``. The service's ``detect()`` time
+is compared with the same clouds' ``detect()`` in this process, back to back and paced at the frame
+period (``detect_pace.py``).
 
     .venv/bin/python bench/bench_system.py                 # 60 s (the issue's benchmark)
     .venv/bin/python bench/bench_system.py --rate 90       # three cameras' worth
@@ -167,6 +169,7 @@ def main() -> int:
         return 0
 
     from bench_transport import measure
+    from detect_pace import paced_detect_ms
     from sofia_replay.synth import write_scene_set
 
     robot = "bench" + uuid.uuid4().hex[:6]
@@ -179,6 +182,7 @@ def main() -> int:
     if a.baseline_messages:  # first: nothing else of this benchmark runs yet
         baseline = {m: measure(m, a.baseline_messages, a.rate) for m in ("on", "off")}
     replay_cpu = replay_cpu_runs(rec, env, tmp, a.replay_cpu_seconds) if a.replay_cpu_seconds else {}
+    pace = paced_detect_ms(rec, 1.0 / a.rate)  # in this process, before the services start
 
     det = start([SOFIA, "detector", "serve", "--backlog", str(a.backlog)], env, tmp / "detector.log")
     wait_log(tmp / "detector.log", "detector ready")
@@ -249,6 +253,10 @@ def main() -> int:
         f"{res['detections'] / max(res['clouds'], 1):.3f}x |"
     )
     plumbing_rows(lat, np.array(res["detect_ms"]), baseline)
+    d50 = float(np.percentile(res["detect_ms"], 50)) if res["detect_ms"] else float("nan")
+    for name, v in (("one process, paced at the frame period", pace["paced"]),
+                    ("one process, back to back", pace["back_to_back"])):  # fmt: skip
+        print(f"| detect() p50 in the service | {d50:.1f} ms | {name} {v:.2f} ms | {d50 / v:.2f}x |")
     print(f"| frames lost (clouds without detection) | {lost} | 0 | |")
     print(f"| detector's dropped (stale) clouds | {dropped} | 0 | |")
     for name in ("replay", "detector", "subscriber"):

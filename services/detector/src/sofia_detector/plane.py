@@ -40,18 +40,27 @@ def coords(points: np.ndarray) -> np.ndarray:
         return np.ascontiguousarray(np.moveaxis(np.asarray(points), -1, 0), dtype=np.float32)
 
 
+@jit
+def _change_frame(c_a: np.ndarray, R_t: np.ndarray, offset: np.ndarray) -> np.ndarray:
+    out = np.empty_like(c_a)
+    for k in range(c_a.shape[1]):
+        x, y, z = c_a[0, k], c_a[1, k], c_a[2, k]
+        for i in range(3):
+            out[i, k] = (R_t[i, 0] * x + R_t[i, 1] * y + R_t[i, 2] * z) - offset[i]
+    return out
+
+
 def change_frame(c_a: np.ndarray, T_a_f: np.ndarray) -> np.ndarray:
     """Coordinates in frame ``f`` of points given in frame ``a``: ``R^T (c_a - t)``.
 
     c_a: (3, ...) float32, frame a, metres (NaN and inf pass through). T_a_f: (4, 4) pose of f in
-    a. Returns (3, ...) float32.
+    a. Returns (3, ...) float32. Compiled, in one thread: a BLAS product would be split over the
+    cores for large clouds, and OpenBLAS's threads spin on after it, taking the other core.
     """
     R_t = np.ascontiguousarray(T_a_f[:3, :3].T, dtype=np.float32)
-    offset = (R_t @ T_a_f[:3, 3].astype(np.float32))[:, None]
-    with np.errstate(invalid="ignore", over="ignore"):
-        out = R_t @ c_a.reshape(3, -1)
-        out -= offset
-    return out.reshape(c_a.shape)
+    offset = R_t @ T_a_f[:3, 3].astype(np.float32)
+    flat = np.ascontiguousarray(c_a, dtype=np.float32).reshape(3, -1)
+    return _change_frame(flat, R_t, offset).reshape(c_a.shape)  # type: ignore[no-any-return]
 
 
 @jit

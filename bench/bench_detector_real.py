@@ -82,9 +82,7 @@ def load_case(path: Path, board: Board) -> Case:
     z = depth_mm.astype(np.float64) * 1e-3
     z[depth_mm == 0] = np.nan
     T = data["T"]
-    # einsum, not a BLAS product: OpenBLAS's threads spin on after a large product, and their CPU
-    # time would count in the detector's process time measured next
-    p = np.einsum("hwk,jk->hwj", cam.ray_directions_cam() * z[..., None], T[:3, :3]) + T[:3, 3]
+    p = (cam.ray_directions_cam() * z[..., None]) @ T[:3, :3].T + T[:3, 3]
     b = OTHER_BOARD if cat == "other-board" else board
     truth = json.loads(str(data["truth"]))
     return Case(cat, (cam.width, cam.height), b, p.astype(np.float32), data["rgb"], truth)

@@ -10,6 +10,13 @@ from sofia_detector import BadCloud, detect
 from sofia_schemas import Board
 
 BOARD = Board.default()
+LINE = np.column_stack(  # points along one line on the board's surface
+    [
+        np.linspace(-0.15, 0.15, 500) + BOARD.center[0],
+        np.full(500, BOARD.center[1]),
+        np.full(500, BOARD.surface_z),
+    ]
+)
 
 
 @pytest.mark.parametrize(
@@ -26,6 +33,7 @@ BOARD = Board.default()
         ("-inf and nan mix", np.stack([np.full(300, -np.inf), np.full(300, np.nan), np.zeros(300)], axis=1)),
         ("integers", np.zeros((10, 3), np.int64)),
         ("far away", np.random.default_rng(0).normal(100.0, 1.0, (2000, 3))),
+        ("a line on the board", LINE),  # no plane through it (the plane fit raised LinAlgError)
     ],
 )
 def test_no_board_is_a_clear_result(name: str, points: np.ndarray) -> None:

@@ -70,7 +70,13 @@ def pixel_to_plane(rows: np.ndarray, cols: np.ndarray, xy: np.ndarray) -> np.nda
 
 @jit
 def bordered_patches(
-    grid: np.ndarray, same: np.ndarray, h: np.ndarray, raised: float, lo: float, hi: float, reach: int
+    grid: np.ndarray,
+    same: np.ndarray,
+    h: np.ndarray,
+    raised: np.float32,
+    lo: np.float32,
+    hi: np.float32,
+    reach: int,
 ) -> np.ndarray:
     """(h, w) bool: the pixels of ``same`` (h, w) bool joined to the top ``grid`` (h, w) bool through
     ``same`` whose patch is bordered (within ``reach`` pixels; a pixel bordering two patches counts

@@ -113,11 +113,8 @@ def fit_plane(
     """
     if z.size < min_points:
         return None
-    a, b, c, rms, n_in = _refits(
-        *(np.ascontiguousarray(v, dtype=np.float32) for v in (x, y, z)),
-        np.asarray(thresholds, dtype=np.float64),
-        min_points,
-    )
+    x, y, z = (np.ascontiguousarray(v, dtype=np.float32) for v in (x, y, z))
+    a, b, c, rms, n_in = _refits(x, y, z, np.asarray(thresholds, dtype=np.float64), min_points)
     if n_in < min_points:
         return None
     return PlaneFit((float(a), float(b), float(c)), float(rms), int(n_in))

@@ -28,7 +28,7 @@ from .depth_clean import bridge, consistent_at, median_chroma, of_colour
 from .kernels import warm_kernels
 from .outline import grid_boundary
 from .pick import PickParams, first_pick
-from .plane import fit_plane
+from .plane import change_frame, fit_plane
 
 log = logging.getLogger(__name__)
 
@@ -77,6 +77,7 @@ def compile_kernels() -> None:
     fill_holes(two)
     grid_boundary(two)
     xyz = np.zeros((3, 6, 6), dtype=np.float32)
+    change_frame(xyz, np.eye(4))
     consistent_at(xyz, two, 0.01)
     rgb = np.zeros((6, 6, 3), dtype=np.uint8)
     own = median_chroma(rgb, *np.nonzero(two))

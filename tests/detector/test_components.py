@@ -68,12 +68,17 @@ def test_of_colour_decides_as_the_chroma_distance_on_every_colour(tol: float) ->
     several objects' own colours."""
     levels = np.arange(0, 256, 3, dtype=np.uint8)
     px = np.stack(np.meshgrid(levels, levels, levels, indexing="ij"), axis=-1).reshape(-1, 3)
+    total = np.arange(3 * 255 + 1)  # and one colour of every sum r + g + b
+    every_sum = np.stack(
+        [np.minimum(total, 255), np.clip(total - 255, 0, 255), np.clip(total - 510, 0, 255)], 1
+    )
+    px = np.concatenate([px, every_sum.astype(np.uint8)])
     rng = np.random.default_rng(int(tol * 100))
     for own_rgb in ((20, 20, 25), (200, 30, 30), (240, 240, 235), tuple(rng.integers(0, 256, 3))):
         own = chroma(np.array(own_rgb, dtype=np.float64))
         expected = colour_distance(chroma(px), own) < tol
         assert np.array_equal(of_colour(px, own, tol), expected)
-    assert of_colour(px.reshape(86, -1, 3), own, tol).shape == (86, 86 * 86)
+    assert of_colour(px[: 86**3].reshape(86, -1, 3), own, tol).shape == (86, 86 * 86)
 
 
 def test_colour_median_counts_as_numpys_median() -> None:

@@ -69,8 +69,9 @@ def chroma(rgb: np.ndarray) -> np.ndarray:
     return np.concatenate([3.0 * x / s, 0.5 * np.log(s)], axis=-1)
 
 
-# 0.5 log of a colour's sum + 24 (0..789 for uint8 colours), as :func:`chroma` computes it
-HALF_LOG = 0.5 * np.log(np.arange(1, 3 * 255 + 25, dtype=np.float32))[np.r_[0, 0 : 3 * 255 + 24]]
+# 0.5 log(s) in float32 as :func:`chroma` computes it, for each sum s = r + g + b + 24 (24..789) of
+# a uint8 colour; indexed by s (the entries below 24 are unused)
+HALF_LOG = 0.5 * np.log(np.maximum(np.arange(3 * 255 + 25), 1).astype(np.float32))
 F32_3, F32_8 = np.float32(3.0), np.float32(8.0)
 
 

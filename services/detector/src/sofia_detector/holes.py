@@ -78,13 +78,16 @@ def bordered_patches(
     hi: np.float32,
     reach: int,
 ) -> np.ndarray:
-    """(h, w) bool: the pixels of ``same`` (h, w) bool joined to the top ``grid`` (h, w) bool through
-    ``same`` whose patch is bordered (within ``reach`` pixels; a pixel bordering two patches counts
-    for the later one) by the top or missing depth. Bordered by pixels with depth, the patch must
-    have at most :data:`OFF_TOP` of those more than ``raised`` above the board off the top and its
-    band of heights ``[lo, hi]``, and at most :data:`BOARD_SEEN` of its border on the board (within
-    ``raised`` of it). h: (h, w) float32 heights above the board, NaN where missing; ``raised``,
-    ``lo``, ``hi`` float32, metres."""
+    """(h, w) bool: the pixels of ``same`` (h, w) bool (missing depth of the top's colour) in
+    patches that join the top ``grid`` (h, w) bool through ``same`` and that the top or more
+    missing depth borders (within ``reach`` pixels). Of a patch's border pixels with depth more
+    than ``raised`` above the board, at most :data:`OFF_TOP` may be off the top (not in ``grid``
+    and outside its band of heights ``[lo, hi]``: a cone's flank, a side face below the top); at
+    most :data:`BOARD_SEEN` of its border may be the board with depth (within ``raised`` of it: a
+    side face of the top's colour, seen too obliquely). Pixels at the top's height are the top
+    even when not in ``grid`` (pieces of it that missing depth cut off). A pixel within reach of
+    two patches counts for the later-numbered one. h: (h, w) float32 heights above the board, NaN
+    where missing; ``raised``, ``lo``, ``hi`` float32, metres."""
     rows, cols = grid.shape
     labels, n_all = label8_jit(grid | same)
     joined = np.zeros(n_all + 1, dtype=np.bool_)

@@ -17,8 +17,8 @@ from collections.abc import Iterator
 import numpy as np
 from scipy import ndimage
 
-from .components import label8
-from .depth_clean import EIGHT, chroma, colour_distance, label_means
+from .components import label8, max_filter
+from .depth_clean import chroma, colour_distance, label_means
 from .params import DetectorParams
 from .plane import change_frame
 from .segment import ObjectPoints, inside
@@ -58,7 +58,7 @@ def join_pieces(labels: np.ndarray, n: int, empty: np.ndarray, pairs: list[tuple
     to :data:`BRIDGE_CELLS` cells into ``empty`` (h, w) bool cells."""
     grown = labels.copy()
     for _ in range(BRIDGE_CELLS):
-        around = ndimage.maximum_filter(grown, footprint=EIGHT)
+        around = max_filter(grown, 3)  # the largest label among the 8 neighbours (or the cell)
         step = empty & (grown == 0) & (around > 0)
         if not step.any():
             break

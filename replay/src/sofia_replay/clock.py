@@ -22,9 +22,9 @@ def loop_span_ns(topics: dict[str, tuple[int, int, int]]) -> int:
     """Log time (ns) from one loop's start to the next's, from each topic's (first log time, last
     log time, count) in the loop. Each topic's next first message follows its last by its mean
     interval (a 30 Hz camera's first cloud one period after its last): the longest such loop of
-    the topics with two or more messages at different times, so that no topic bursts; and the next
-    loop's first message follows this loop's last one. A loop whose messages all share one time repeats once a
-    second."""
+    the topics with two or more messages at different times, so that no topic bursts, and at least
+    until just after this loop's last message. A loop whose messages all share one time repeats
+    once a second."""
     if not topics:
         return SINGLE_LOOP_NS
     first = min(f for f, _, _ in topics.values())
@@ -49,7 +49,7 @@ class PlayClock:
         """Seconds from ``now_s`` (monotonic) until the message of ``topic`` logged at
         ``log_time_ns`` is due (<= 0: now); the first message sets the origin, a late one restarts
         it."""
-        self.played(topic, log_time_ns)
+        self._played(topic, log_time_ns)
         t_ns = log_time_ns + self.offset_ns
         if self.anchor is None:
             self.anchor = (now_s, t_ns)
@@ -61,8 +61,8 @@ class PlayClock:
             return 0.0
         return due - now_s
 
-    def played(self, topic: str, log_time_ns: int) -> None:
-        """Count a message of this loop (:meth:`delay_s` does it)."""
+    def _played(self, topic: str, log_time_ns: int) -> None:
+        """Count a message of this loop in its topic's (first, last, count)."""
         f, _, n = self._topics.get(topic, (log_time_ns, 0, 0))
         self._topics[topic] = (f, log_time_ns, n + 1)
 

@@ -2,21 +2,27 @@
 
 from __future__ import annotations
 
+import logging
+
 import numpy as np
 import pytest
 from hypothesis import given
 from hypothesis import strategies as st
-from sofia_detector.pick import PickParams, first_pick, pick_target
+from sofia_detector.pick import PickParams, Picks, first_pick, pick_target
 from sofia_schemas.messages import DetectedObject, Detection
 from sofia_schemas.transforms import quat_xyzw_to_matrix
 
 
 def _obj(
-    yaw: float = 0.3, extents=(0.08, 0.04, 0.05), allowed: bool = True, center=(0.5, 0.1, 0.025)
+    yaw: float = 0.3,
+    extents=(0.08, 0.04, 0.05),
+    allowed: bool = True,
+    center=(0.5, 0.1, 0.025),
+    confidence: float = 1.0,
 ) -> DetectedObject:  # type: ignore[no-untyped-def]
     return DetectedObject(
         center=center, centroid=center, extents=extents, yaw=yaw, field=(0, 0) if allowed else (0, 1),
-        allowed=allowed, n_points=500, confidence=1.0,
+        allowed=allowed, n_points=500, confidence=confidence,
     )  # fmt: skip
 
 
@@ -57,3 +63,32 @@ def test_first_pick_takes_the_first_allowed_object() -> None:
     p = first_pick(det)
     assert p is not None and p.object_center == (0.6, 0.0, 0.02) and p.stamp_ns == 5
     assert first_pick(det.model_copy(update={"objects": det.objects[:1]})) is None
+
+
+def test_objects_whose_centre_is_not_trusted_get_no_pick() -> None:
+    """A truncated object (confidence below 0.5: its centre is that of its visible part) on a red
+    field is passed over for the next trusted one, and alone it gives no pick."""
+    cut = _obj(center=(0.4, 0, 0.02), confidence=0.31)
+    whole = _obj(center=(0.6, 0, 0.02), confidence=0.93)
+    det = Detection(stamp_ns=5, frame_id="panda_link0", status="ok", objects=[cut, whole])
+    p = first_pick(det)
+    assert p is not None and p.object_center == whole.center
+    alone = det.model_copy(update={"objects": [cut]})
+    assert first_pick(alone) is None
+    at_floor = det.model_copy(update={"objects": [_obj(confidence=0.5)]})
+    assert first_pick(at_floor) is not None  # the floor itself is trusted
+    p = first_pick(alone, PickParams(min_confidence=0.3))  # the user's own floor
+    assert p is not None and p.object_center == cut.center
+
+
+def test_picks_count_and_log_a_run_of_withheld_picks_once(caplog: pytest.LogCaptureFixture) -> None:
+    cut = Detection(stamp_ns=1, frame_id="panda_link0", status="ok", objects=[_obj(confidence=0.3)])
+    whole = cut.model_copy(update={"objects": [_obj(confidence=0.95)]})
+    off_red = cut.model_copy(update={"objects": [_obj(allowed=False, confidence=0.3)]})
+    picks = Picks(PickParams())
+    with caplog.at_level(logging.INFO, logger="sofia.detector"):
+        got = [picks.of(d, "sofia/panda/points") for d in (cut, cut, cut, whole, off_red, cut)]
+    assert [p is not None for p in got] == [False, False, False, True, False, False]
+    assert picks.published == 1 and picks.withheld == 4  # the cloud without red objects is neither
+    logged = [r.getMessage() for r in caplog.records if "no pick target" in r.getMessage()]
+    assert len(logged) == 2 and "[0.3]" in logged[0] and "below 0.50" in logged[0]

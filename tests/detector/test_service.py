@@ -10,8 +10,9 @@ import numpy as np
 import pytest
 import zenoh
 from sofia_replay.synth import DEFAULT_T_FLANGE_CAM
+from sofia_replay.synth.realism import make_real_frame
 from sofia_runtime import client
-from sofia_schemas import pointcloud
+from sofia_schemas import Board, pointcloud
 from sofia_schemas.keys import ENCODING_CDR_POINTCLOUD2, ENCODING_JSON, Keys
 from sofia_schemas.messages import Detection, ErrorReply, FlangePose, PickTarget, ServiceStatus
 from sofia_schemas.rosmsg import encode_flange_pose
@@ -58,6 +59,37 @@ def test_clouds_in_detections_out_with_pick_and_status(sofia_proc, robot_id: str
     assert {"received", "dropped", "errors"} <= set(status.counters)
     assert proc.stop() == 0  # SIGTERM: a clean stop
     assert "detector stopping" in proc.log() and "Traceback" not in proc.log()
+
+
+def test_no_pick_for_a_truncated_object(sofia_proc, robot_id: str, session, scenes) -> None:  # type: ignore[no-untyped-def]
+    """A bottle cut by the image border on a red field is detected (truncated, confidence below
+    0.5), but gets no pick target: its centre is that of its visible part. The status counts the
+    withheld picks and the log says why; the next whole object is picked."""
+    keys = Keys(robot_id)
+    proc = sofia_proc("detector", "serve")
+    proc.wait_for_log("detector ready")
+    dets, _s1 = _collect(session, keys.detections)
+    picks, _s2 = _collect(session, keys.pick_target)
+    _wait_subscribed(session, keys)
+    pub = session.declare_publisher(keys.points, congestion_control=BLOCK)
+    cut = make_real_frame(Board.default(), "edge-cut", np.random.default_rng(2))
+    cdr = pointcloud.encode_points(cut.points_base, stamp_ns=STAMP_NS, frame_id="panda_link0", rgb=cut.rgb)
+    pub.put(bytes(cdr), encoding=ENCODING_CDR_POINTCLOUD2)
+    det = Detection.model_validate_json(dets.get(timeout=15))
+    assert len(det.objects) == 1 and det.objects[0].allowed and "image_edge" in det.objects[0].truncated
+    assert det.objects[0].confidence < 0.5
+    s = scenes["two"]
+    cdr = pointcloud.encode_points(s.points_base, stamp_ns=STAMP_NS + 1, frame_id="panda_link0")
+    pub.put(bytes(cdr), encoding=ENCODING_CDR_POINTCLOUD2)
+    Detection.model_validate_json(dets.get(timeout=15))
+    pick = PickTarget.model_validate_json(picks.get(timeout=10))
+    assert pick.stamp_ns == STAMP_NS + 1  # the first pick is the whole object's: none for the cut one
+    status = ServiceStatus.model_validate_json(
+        client.query(session, keys.status("detector"))[0].ok.payload.to_bytes()
+    )  # type: ignore[union-attr]
+    assert status.counters["picks_withheld"] == 1 and status.counters["picks"] == 1
+    assert proc.stop() == 0
+    assert "no pick target for the cloud" in proc.log() and "below 0.50" in proc.log()
 
 
 def test_detect_queryable(sofia_proc, robot_id: str, session, scenes) -> None:  # type: ignore[no-untyped-def]

@@ -53,7 +53,9 @@ def latest_target(session: zenoh.Session, keys: Keys, timeout_s: float = TARGET_
     try:
         if not event.wait(timeout_s):
             raise PhaseFailed("target", f"no pick target given and none published on {keys.pick_target} "
-                                        f"within {timeout_s} s (is the detector running and seeing an object?)")  # fmt: skip
+                                        f"within {timeout_s} s (is the detector running and seeing an object on a red field? "
+                                        "It publishes none for objects below its --pick-min-confidence, such as "
+                                        "objects cut by the image border: see `sofia health detector`, picks_withheld)")  # fmt: skip
         return got[-1]
     finally:
         sub.undeclare()

@@ -18,6 +18,7 @@ from sofia_schemas.messages import Detection
 from .detect import detect
 from .errors import DetectorError, WrongCloud
 from .frames import load_transform_file
+from .pick import PickParams
 from .readers import FileCloud, iter_file_clouds
 from .sanity import diagnose
 
@@ -54,8 +55,24 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
         help="seconds a camera-frame cloud waits for the flange pose of its stamp, queries being "
         "served meanwhile (default 0.3)",
     )  # fmt: skip
+    serve.add_argument(
+        "--pick-min-confidence", type=_confidence, default=PickParams.min_confidence, metavar="C",
+        help="publish pick targets only for objects of at least this confidence (default 0.5: not "
+        "for truncated objects, whose centre is that of their visible part)",
+    )  # fmt: skip
     add_zenoh_args(serve)
     serve.set_defaults(func=_serve)
+
+
+def _confidence(text: str) -> float:
+    """A confidence from the command line: a number from 0 to 1."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not 0.0 <= value <= 1.0:
+        raise argparse.ArgumentTypeError(f"{text} is not a confidence between 0 and 1")
+    return value
 
 
 def _board(path: Path | None) -> Board:
@@ -68,6 +85,7 @@ def _serve(args: argparse.Namespace) -> int:
     config = ServiceConfig(
         board=_board(args.board), robot=args.robot or default_robot(), zenoh=ZenohOptions.from_args(args),
         transform_file=args.transform, backlog=args.backlog, pose_wait_s=args.pose_wait,
+        pick=PickParams(min_confidence=args.pick_min_confidence),
     )  # fmt: skip
     return main(config)
 

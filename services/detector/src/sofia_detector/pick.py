@@ -6,11 +6,14 @@ flange y axis, across the object's width; the flange x axis lies along the objec
 
 from __future__ import annotations
 
+import logging
 from dataclasses import dataclass
 
 import numpy as np
 from sofia_schemas.messages import DetectedObject, Detection, PickTarget
 from sofia_schemas.transforms import matrix_to_quat_xyzw
+
+log = logging.getLogger("sofia.detector")
 
 
 @dataclass(frozen=True)
@@ -19,6 +22,8 @@ class PickParams:
     pregrasp_height: pre-grasp pose above the grasp, metres. margin_mm: added to the object width.
     max_opening_mm: the gripper's widest opening (the opening is clipped to it).
     yaw_offset: rotation of the fingers about the flange z axis from the flange y axis, radians.
+    min_confidence: objects below it get no pick: a truncated object's centre is that of its
+    visible part (its confidence is below 0.5) and may lie centimetres off.
     """
 
     fingertip_offset: float = 0.20
@@ -26,6 +31,7 @@ class PickParams:
     margin_mm: float = 20.0
     max_opening_mm: float | None = None
     yaw_offset: float = 0.0
+    min_confidence: float = 0.5
 
 
 def R_base_flange_down(yaw: float) -> np.ndarray:
@@ -63,9 +69,43 @@ def pick_target(
     )  # fmt: skip
 
 
+def pickable(detection: Detection, params: PickParams | None = None) -> list[DetectedObject]:
+    """The objects on an allowed (red) field whose confidence is at least ``min_confidence``, in
+    the detection's order."""
+    floor = (params or PickParams()).min_confidence
+    return [obj for obj in detection.objects if obj.allowed and obj.confidence >= floor]
+
+
 def first_pick(detection: Detection, params: PickParams | None = None) -> PickTarget | None:
-    """The pick of the first object on an allowed (red) field, or None when there is none."""
-    for obj in detection.objects:
-        if obj.allowed:
-            return pick_target(obj, detection.stamp_ns, detection.frame_id, params)
-    return None
+    """The pick of the first object :func:`pickable`, or None when there is none (no object on an
+    allowed field, or only ones whose centre is not trusted)."""
+    objects = pickable(detection, params)
+    return pick_target(objects[0], detection.stamp_ns, detection.frame_id, params) if objects else None
+
+
+class Picks:
+    """The pick target of each detection (:func:`first_pick`), counted: ``published``, and
+    ``withheld`` (detections with objects on red fields, none of them :func:`pickable`). A run of
+    withheld ones is logged once, not at the camera's rate."""
+
+    def __init__(self, params: PickParams) -> None:
+        self.params = params
+        self.published = 0
+        self.withheld = 0
+        self._withholding = False
+
+    def of(self, detection: Detection, source: str) -> PickTarget | None:
+        """The pick target of ``detection`` (of the cloud from ``source``), or None."""
+        pick = first_pick(detection, self.params)
+        red = [obj.confidence for obj in detection.objects if obj.allowed]
+        withholding = pick is None and bool(red)
+        self.published += pick is not None
+        self.withheld += withholding
+        if withholding and not self._withholding:
+            log.info(
+                "no pick target for the cloud on %s: its objects on red fields have confidence %s, below "
+                "%.2f (truncated or barely seen: their centres are not trusted)",
+                source, red, self.params.min_confidence,
+            )  # fmt: skip
+        self._withholding = withholding
+        return pick

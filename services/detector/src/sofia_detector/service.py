@@ -3,8 +3,8 @@
 - subscribes ``Keys(robot).points`` (CDR PointCloud2, base frame) and ``Keys(robot).camera_points``
   (camera frame: mapped with the flange pose at the cloud's stamp and ``T_flange_cam``);
 - publishes one JSON :class:`Detection` per processed cloud on ``Keys(robot).detections``, stamped
-  with the cloud's stamp, and a :class:`PickTarget` for its first allowed object on
-  ``Keys(robot).pick_target``;
+  with the cloud's stamp, and a :class:`PickTarget` for its first allowed object confident enough
+  (:class:`~.pick.Picks`) on ``Keys(robot).pick_target``;
 - queryable ``Keys(robot).detect``: a CDR PointCloud2 payload gets the detection of that cloud, an
   empty one the detection of the latest cloud, a bad one an error reply;
 - ``Keys(robot).status("detector")``: :class:`ServiceStatus` every second, and queryable.
@@ -40,7 +40,7 @@ from .detect import detect
 from .errors import DetectorBusy, DetectorError, TransformUnavailable, UnknownFrame
 from .frames import FlangeHistory, load_correction_file, load_transform_file, parse_transform
 from .params import DetectorParams
-from .pick import PickParams, first_pick
+from .pick import PickParams, Picks
 from .selection import select, split_selection
 from .warmup import warm_up
 from .worker import BAD, UNMAPPED, CloudJob, DropLog, WorkQueue, points_to_base
@@ -84,6 +84,7 @@ class Detector:
             self.transform_name = f"file {config.transform_file}"
             self.transform_pinned = True
         self.latest: Detection | None = None
+        self.picks = Picks(config.pick)
         self.counters = dict.fromkeys(("processed", "errors", "queries", "query_errors"), 0)
         self.last_error = ""
         self.last_ms = 0.0
@@ -211,7 +212,7 @@ class Detector:
         self.latest = det
         self.counters["processed"] += 1
         self.publish["detections"].put(det.to_json_bytes(), encoding=ENCODING_JSON)
-        pick = first_pick(det, self.config.pick)
+        pick = self.picks.of(det, job.key)
         if pick is not None:
             self.publish["pick"].put(pick.to_json_bytes(), encoding=ENCODING_JSON)
 
@@ -248,7 +249,8 @@ class Detector:
         with self._lock:
             w, d = self.work, self.drops
             counters = dict(self.counters, received=w.received, dropped=w.dropped, busy_queries=w.busy,
-                            no_transform=d.count(UNMAPPED), bad_clouds=d.count(BAD))  # fmt: skip
+                            no_transform=d.count(UNMAPPED), bad_clouds=d.count(BAD),
+                            picks=self.picks.published, picks_withheld=self.picks.withheld)  # fmt: skip
             transform, detail = self.transform_name, self.last_error
         state, dropped = self.drops.state()
         return ServiceStatus(

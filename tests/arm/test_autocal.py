@@ -8,6 +8,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 from sofia_arm.autocal import Autocal, AutocalError, AutocalOptions
 from sofia_arm.autocal_io import LocalCalibrator, Progress
+from sofia_arm.autocal_options import to_arm_result
 from sofia_arm.autocal_sim import KinematicArm, SheetEye
 from sofia_calibrator.diagnostics import check_motion
 from sofia_schemas.transforms import rotation_angle
@@ -49,6 +50,14 @@ def test_autonomous_calibration_reaches_the_truth_within_the_budget(T_fc: np.nda
     assert err_mm < 1.0 and err_deg < 0.2, (err_mm, err_deg, [p.reason for p in progress.phases])
     assert out.poses <= run.opts.max_poses and "below 1.0 mm" in out.stop_reason
     assert float(run.sigma_mm().max()) < 1.0
+    # the 1-sigma reported is the stop rule's: the calibrator's own, never below the noise model's
+    # (the calibrator's alone is overconfident with so few samples: bench_autocal's coverage)
+    assert out.sigma_translation_mm is not None
+    np.testing.assert_array_equal(out.sigma_translation_mm, run.sigma_mm())
+    assert np.all(out.sigma_translation_mm >= np.array(out.result.std_translation_mm))
+    assert np.all(out.sigma_translation_mm >= run.model_sigma_mm())
+    details = to_arm_result(arm, out, progress, 1.0, "").details
+    np.testing.assert_allclose(details["sigma_translation_mm"], out.sigma_translation_mm, atol=1e-4)
     check_motion(np.array(out.T_base_flange))  # rotations about two axes at least
     # every pose had the blob in the image, taken at 0.3-0.6 m (a sample is only added when found)
     names = [p.name for p in progress.phases]

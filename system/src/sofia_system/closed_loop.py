@@ -86,7 +86,8 @@ def calibrate(session: zenoh.Session, keys: Keys, T_true: np.ndarray, summary: S
     ok = res.ok and dt_mm < 2.0 and dr_deg < 0.3
     summary.add("autonomous calibration", f"{res.details.get('samples')} poses; {dt_mm:.2f} mm / "
                 f"{dr_deg:.3f} deg from the camera's true T_flange_cam, translation 1-sigma "
-                f"{max(r['std_translation_mm']):.2f} mm; {time.monotonic() - t0:.0f} s", ok)  # fmt: skip
+                f"{max(res.details.get('sigma_translation_mm', r['std_translation_mm'])):.2f} mm; "
+                f"{time.monotonic() - t0:.0f} s", ok)  # fmt: skip
     return ok
 
 

@@ -49,6 +49,9 @@ class Outcome:
     visits: int  # poses visited for samples (failed ones included)
     T_base_flange: list[np.ndarray] = field(default_factory=list)
     stop_reason: str = ""
+    # (3,) translation 1-sigma, flange axes, mm: the stop rule's (:meth:`Autocal.sigma_mm`), the
+    # calibrator's reported one never below the noise model's; None without a result
+    sigma_translation_mm: np.ndarray | None = None
 
 
 class Autocal(Looker):
@@ -145,8 +148,9 @@ class Autocal(Looker):
         return plan.translation_sigma_mm(self.information() - plan.prior_information() + 1e-9 * np.eye(9))
 
     def sigma_mm(self) -> np.ndarray:
-        """(3,) the translation 1-sigma the stop rule uses: the calibrator's reported one, never below
-        the noise model's prediction (an a-posteriori noise scale from few samples is itself uncertain)."""
+        """(3,) the translation 1-sigma the stop rule uses and the outcome reports: the calibrator's
+        reported one, never below the noise model's prediction. At the stop (about 6 samples) the
+        calibrator's alone covers the error a third of the time, this one 60 % (``bench_autocal``)."""
         if self.result is None:
             return np.full(3, np.inf)
         return np.maximum(np.array(self.result.std_translation_mm), self.model_sigma_mm())
@@ -193,7 +197,8 @@ class Autocal(Looker):
             self.arm.move_joints(q_start, self.opts.speed)
         log.info("autonomous calibration: %d samples, %d visits, %.1f s: %s", len(self.samples_T), visits,
                  time.monotonic() - t0, stop)  # fmt: skip
-        return Outcome(self.result, len(self.samples_T), visits, self.samples_T, stop)
+        sigma = self.sigma_mm() if self.result is not None else None
+        return Outcome(self.result, len(self.samples_T), visits, self.samples_T, stop, sigma)
 
 
 def run_autocal(cmd: ArmCommand, arm: ArmMotion, session: zenoh.Session, keys: Keys) -> ArmResult:

@@ -83,7 +83,8 @@ def run_auto(args: argparse.Namespace) -> int:
         print(np.array2string(np.array(r["matrix"]), precision=4, suppress_small=True))
         print(f"  translation {np.round(r['translation'], 4).tolist()} m, quaternion x y z w "
               f"{np.round(r['quaternion_xyzw'], 4).tolist()}")  # fmt: skip
-        print(f"  1-sigma translation {np.round(r['std_translation_mm'], 2).tolist()} mm, rotation "
-              f"{np.round(r['std_rotation_deg'], 3).tolist()} deg")  # fmt: skip
+        sigma_t = res.details.get("sigma_translation_mm", r["std_translation_mm"])
+        print(f"  1-sigma translation {np.round(sigma_t, 2).tolist()} mm (never below the noise model's), "
+              f"rotation {np.round(r['std_rotation_deg'], 3).tolist()} deg")  # fmt: skip
         print(f"  ROS 1: {r.get('ros1_static_transform', '')}")
     return 0 if res.ok else 1

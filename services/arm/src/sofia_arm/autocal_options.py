@@ -63,7 +63,9 @@ class AutocalOptions:
 def to_arm_result(arm: ArmMotion, outcome: Outcome | None, progress: Progress, duration_s: float,
                   error: str) -> ArmResult:  # fmt: skip
     """The command's :class:`ArmResult`: ``details`` holds the calibration result, the samples and
-    visits used, why it stopped, and the launch-file line."""
+    visits used, why it stopped, the translation 1-sigma of the stop rule (``sigma_translation_mm``,
+    flange axes, mm: the result's own ``std_translation_mm`` is the calibrator's, overconfident with
+    as few samples) and the launch-file line."""
     T = arm.T_base_flange()
     r = None if outcome is None else outcome.result
     ok = not error and r is not None and r.passes
@@ -73,6 +75,8 @@ def to_arm_result(arm: ArmMotion, outcome: Outcome | None, progress: Progress, d
         if outcome is None
         else {"samples": outcome.poses, "visits": outcome.visits, "stop_reason": outcome.stop_reason}
     )
+    if outcome is not None and outcome.sigma_translation_mm is not None:
+        details["sigma_translation_mm"] = [round(float(v), 4) for v in outcome.sigma_translation_mm]
     if r is not None:
         details.update(result=r.model_dump(mode="json"), ros1_static_transform=r.ros1_static_transform)
     return ArmResult(

@@ -65,7 +65,7 @@ def to_arm_result(arm: ArmMotion, outcome: Outcome | None, progress: Progress, d
     """The command's :class:`ArmResult`: ``details`` holds the calibration result, the samples and
     visits used, why it stopped, the translation 1-sigma of the stop rule (``sigma_translation_mm``,
     flange axes, mm: the result's own ``std_translation_mm`` is the calibrator's, overconfident with
-    as few samples) and the launch-file line."""
+    the few samples of a planned run) and the launch-file line."""
     T = arm.T_base_flange()
     r = None if outcome is None else outcome.result
     ok = not error and r is not None and r.passes

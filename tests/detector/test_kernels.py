@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -99,13 +101,16 @@ def test_no_edge_within_max_yaw_gives_yaw_zero() -> None:
 
 
 FRESH_PROCESS = """
-import importlib, json, pkgutil
+import importlib, json, pkgutil, sys
+from pathlib import Path
 import numpy as np
 import sofia_detector
 from numba.core.registry import CPUDispatcher
 from sofia_detector.detect import detect
 from sofia_detector.warmup import compile_kernels, warm_scene
-from sofia_schemas import Board
+from sofia_replay.mcap_io import iter_clouds
+from sofia_replay.synth import write_scene_set
+from sofia_schemas import Board, pointcloud
 
 kernels = {}  # every numba-compiled function of the detector package, by module.name
 for info in pkgutil.iter_modules(sofia_detector.__path__):
@@ -123,10 +128,16 @@ holed[:, :40] = np.nan  # the band the second imager does not see
 dark = rgb.copy()
 dark[200:260, 300:340] = (20, 20, 25)
 statuses = []
-for cloud, colours in ((points, rgb), (holed, dark), (holed, None)):
-    statuses.append(detect(cloud, board, rgb=colours).status)
+clouds = [(points, rgb), (holed, dark), (holed, None)]
+write_scene_set(Path(sys.argv[1]), "mixed", 12, seed=11, rate_hz=30, frames="base")  # round tops, holes
+clouds += [(np.array(c.xyz()), np.array(c.rgb())) for _, _, c in iter_clouds(Path(sys.argv[1]))]
+for cloud, colours in clouds:
     ok = np.isfinite(cloud).all(axis=-1)
-    statuses.append(detect(cloud[ok], board, rgb=None if colours is None else colours[ok]).status)
+    for p, c in ((cloud, colours), (cloud[ok], None if colours is None else colours[ok])):
+        statuses.append(detect(p, board, rgb=c).status)
+        # as the service receives it: read-only views of the bytes
+        received = pointcloud.decode(bytes(pointcloud.encode_points(p, stamp_ns=1, frame_id="base", rgb=c)))
+        statuses.append(detect(received.xyz(), board, rgb=received.rgb()).status)
 after = {name: len(f.signatures) for name, f in kernels.items()}
 print(json.dumps({"before": before, "after": after, "statuses": statuses}))
 """
@@ -134,21 +145,30 @@ HELPERS = {
     "components._root",
     "components._union",
     "depth_clean._chroma_px",
+    "depth_clean.same_colour",
+    "pixels._counted_median",
+    "pixels.grow_jit",
     "kernels._turn",
     "kernels._solve4",
 }
 
 
-def test_compile_kernels_compiles_what_detection_calls() -> None:
+def test_compile_kernels_compiles_what_detection_calls(tmp_path: Path) -> None:
     """In a fresh process, after the warm-up, detections find every compiled signature they call
     (none is compiled during a detection): organized clouds with colours and missing depth (a dark
-    object's holes, the invalid band), the same flattened, and a cloud without colours. Every
-    kernel but the helpers inlined into others is compiled by the warm-up itself."""
+    object's holes, the invalid band), the same flattened, and a cloud without colours; synthetic
+    scenes (round tops, pieces split by holes); each also as the service receives it (read-only
+    views of the bytes: a kernel compiled at a cloud's arrival stalls the service for 100 ms or
+    more, and with a backlog of one the next clouds are lost). Every kernel but the helpers
+    inlined into others is compiled by the warm-up itself."""
     import json
     import subprocess
     import sys
 
-    run = subprocess.run([sys.executable, "-c", FRESH_PROCESS], capture_output=True, text=True, timeout=300)
+    scenes = str(tmp_path / "scenes.mcap")
+    run = subprocess.run(
+        [sys.executable, "-c", FRESH_PROCESS, scenes], capture_output=True, text=True, timeout=300
+    )
     assert run.returncode == 0, run.stderr[-3000:]
     res = json.loads(run.stdout.strip().splitlines()[-1])
     before, after = res["before"], res["after"]

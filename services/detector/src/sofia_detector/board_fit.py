@@ -10,7 +10,7 @@ from sofia_schemas.transforms import invert
 
 from .outline import Outline, fit_outline, grid_boundary, largest_component
 from .params import DetectorParams
-from .plane import PlaneFit, T_cfg_plane, change_frame, fit_plane, planar_transform
+from .plane import PlaneFit, T_cfg_plane, change_frame, fit_plane, planar_transform, points_in_frame
 
 MIN_BOARD_POINTS = 50
 PLANE_FIT_POINTS = 2500  # plenty: the plane offset's standard error is ~0.05 mm
@@ -112,11 +112,11 @@ def _outline_points(
 def fit_board(coarse_base: np.ndarray, board: Board, params: DetectorParams) -> BoardFit | None:
     """Measure the board from a coarse cloud.
 
-    coarse_base: (3, h, w) organized or (3, n) float32 coordinates, base frame, metres, NaN
+    coarse_base: (h, w, 3) organized or (n, 3) float points (any strides), base frame, metres, NaN
     allowed. Returns None when fewer than :data:`MIN_BOARD_POINTS` points lie near the configured
     board.
     """
-    q = change_frame(coarse_base, board.T_base_board)
+    q = points_in_frame(coarse_base, board.T_base_board)
     ex, ey = board.extent
     with np.errstate(invalid="ignore"):
         cand = (

@@ -5,9 +5,11 @@ object's board-frame points (z = height, metres).
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
-from .kernels import cone_gauss_newton
+from .kernels import _solve4, cone_gauss_newton, jit
 from .outline import Rect
 
 REACH = 0.85  # a cone's farthest visible points lie at least this share of its base radius out
@@ -22,24 +24,71 @@ def fit_top(x: np.ndarray, y: np.ndarray, h: np.ndarray) -> tuple[np.ndarray, fl
     """
     if h.size < 8:
         return None
-    A = np.stack([np.ones_like(x), x, y, x * x + y * y]).astype(np.float64)
-    try:
-        M_inv = np.linalg.inv(A @ A.T)
-    except np.linalg.LinAlgError:
-        return None
-    coef = M_inv @ (A @ h.astype(np.float64))
-    rss = float(np.sum((h - coef @ A) ** 2))
-    se_d = np.sqrt(max(rss, 0.0) / (h.size - 4) * M_inv[3, 3])
-    return (coef, float(se_d)) if np.all(np.isfinite(coef)) and np.isfinite(se_d) else None
+    coef, se_d = _cap(np.asarray(x, dtype=np.float64), np.asarray(y, dtype=np.float64), h)
+    return (coef, se_d) if np.all(np.isfinite(coef)) and np.isfinite(se_d) else None
 
 
-def _line(x: np.ndarray, y: np.ndarray) -> tuple[float, float, float]:
+@jit
+def _cap(x: np.ndarray, y: np.ndarray, h: np.ndarray) -> tuple[np.ndarray, float]:
+    """:func:`fit_top` by its normal equations (Cholesky): (coef (4,), se_d), NaN when singular.
+    x, y: (n,) float64; h: (n,) float."""
+    n = h.size
+    M, rhs = np.zeros((4, 4)), np.zeros(4)
+    row = np.ones(4)
+    for i in range(n):
+        row[1], row[2], row[3] = x[i], y[i], x[i] * x[i] + y[i] * y[i]
+        for j in range(4):
+            rhs[j] += row[j] * np.float64(h[i])
+            for m in range(j + 1):
+                M[j, m] += row[j] * row[m]
+    for j in range(4):
+        for m in range(j):
+            M[m, j] = M[j, m]
+    coef = _solve4(M, rhs)
+    e3 = np.zeros(4)
+    e3[3] = 1.0
+    inv_33 = _solve4(M, e3)[3]  # (M^-1)[3, 3]
+    rss = 0.0
+    for i in range(n):
+        r = np.float64(h[i]) - (
+            coef[0] + coef[1] * x[i] + coef[2] * y[i] + coef[3] * (x[i] * x[i] + y[i] * y[i])
+        )
+        rss += r * r
+    return coef, math.sqrt(max(rss, 0.0) / (n - 4) * inv_33) if inv_33 >= 0 else math.nan
+
+
+@jit
+def _line_rms(x: np.ndarray, y: np.ndarray) -> tuple[float, float, float]:
     """Least-squares ``y = a + k x`` of (n,) float64 arrays: (a, k, rms residual)."""
-    xm, ym = float(x.mean()), float(y.mean())
-    dx = x - xm
-    k = float(dx @ (y - ym)) / max(float(dx @ dx), 1e-12)
+    n = x.size
+    xm, ym = x.mean(), y.mean()
+    sxy = sxx = 0.0
+    for i in range(n):
+        dx = x[i] - xm
+        sxy += dx * (y[i] - ym)
+        sxx += dx * dx
+    k = sxy / max(sxx, 1e-12)
     a = ym - k * xm
-    return a, k, float(np.sqrt(np.mean((y - a - k * x) ** 2)))
+    ss = 0.0
+    for i in range(n):
+        e = y[i] - a - k * x[i]
+        ss += e * e
+    return a, k, math.sqrt(ss / n)
+
+
+@jit
+def _within(b: np.ndarray, cx: float, cy: float, reach: float) -> tuple[np.ndarray, np.ndarray]:
+    """(rs, hs) (k,) float64: the xy distance from (cx, cy) and the height of the points of
+    b (3, n) float32 (board frame, metres) nearer than ``reach`` to it."""
+    n = b.shape[1]
+    rs, hs = np.empty(n), np.empty(n)
+    k = 0
+    for i in range(n):
+        r = math.hypot(np.float64(b[0, i]) - cx, np.float64(b[1, i]) - cy)
+        if r < reach:
+            rs[k], hs[k] = r, b[2, i]
+            k += 1
+    return rs[:k], hs[:k]
 
 
 def fit_cone(b: np.ndarray, rect: Rect, noise: float) -> float | None:
@@ -52,13 +101,11 @@ def fit_cone(b: np.ndarray, rect: Rect, noise: float) -> float | None:
     """
     radius = 0.5 * float(min(rect.size))
     c = rect.center
-    r = np.hypot(b[0] - c[0], b[1] - c[1])
-    sel = r < 0.8 * radius
-    if np.count_nonzero(sel) < 20 or radius < 0.01:
+    rs, hs = _within(b, float(c[0]), float(c[1]), 0.8 * radius)
+    if rs.size < 20 or radius < 0.01:
         return None
-    rs, hs = r[sel].astype(np.float64), b[2, sel].astype(np.float64)
-    a, k, rms = _line(rs, hs)
-    _, _, rms_cap = _line(rs * rs, hs)  # a ball's cap, for comparison
+    a, k, rms = _line_rms(rs, hs)
+    _, _, rms_cap = _line_rms(rs * rs, hs)  # a ball's cap, for comparison
     if k > -0.5 or rms > 3 * noise + 0.003 or rms > 0.8 * rms_cap or a > 2.0 * float(hs.max()):
         return None
     tip = rs < 0.3 * radius  # a cone's tip lies on the line; a bottle's flat cap falls below it

@@ -16,13 +16,15 @@ without it could be a shaded brighter one (grey, black).
 
 from __future__ import annotations
 
+import math
 from functools import lru_cache
 
 import numpy as np
 from sofia_schemas import Board
 
 from .depth_clean import chroma, colour_distance
-from .pixels import median, where
+from .kernels import jit
+from .pixels import median
 
 DEFAULT_PALETTE: tuple[tuple[str, tuple[int, int, int]], ...] = (
     ("red", (200, 30, 35)),
@@ -38,6 +40,7 @@ DEFAULT_PALETTE: tuple[tuple[str, tuple[int, int, int]], ...] = (
 WHITE_REFERENCE = (235.0, 235.0, 230.0)  # sRGB of the board's white fields in the palette's light
 MIN_WHITE_PIXELS = 20
 SAME_HUE = 0.1  # chromaticity distance of palette colours that differ by brightness alone
+WHITE_STEP = 3  # board_white samples every third row and column of the coarse grid
 NORMAL_STEP = 2  # pixels between the points whose differences give a face's normal
 
 
@@ -47,25 +50,51 @@ def board_white(
     """(3,) median observed colour of the board's white (not allowed) fields, or None.
 
     m_plane: (3, h, w) float32 coarse coordinates, plane frame, metres. rgb_coarse: (h, w, 3)
-    uint8 colours of the same pixels. T_board_plane: (4, 4) plane frame in the board frame.
-    Pixels within ``band`` of the plane and in the middle 60 % of a white field count.
+    uint8 colours of the same pixels (any strides). T_board_plane: (4, 4) plane frame in the board
+    frame. Pixels of every third row and column within ``band`` of the plane and in the middle
+    60 % of a white field count.
     """
-    with np.errstate(invalid="ignore"):
-        on_top = np.abs(m_plane[2, ::3, ::3]) < band
-    r, c = where(on_top)
-    r, c = 3 * r, 3 * c
-    if r.size == 0:
-        return None
-    xy = (T_board_plane[:2, :2] @ m_plane[:2, r, c]).T + T_board_plane[:2, 3]
-    rc = board.field_of_board_xy(xy)
     centres, allowed = _fields(board)
-    inside = rc[:, 0] >= 0
-    i, j = np.clip(rc[:, 0], 0, None), np.clip(rc[:, 1], 0, None)
-    middle = np.all(np.abs(xy - centres[i, j]) < 0.3 * np.array(board.field_size), axis=1)
-    white = inside & middle & ~allowed[i, j]
-    if np.count_nonzero(white) < MIN_WHITE_PIXELS:
+    A = np.ascontiguousarray(T_board_plane[:2, [0, 1, 3]], dtype=np.float64)
+    size = np.asarray(board.field_size, dtype=np.float64)
+    white = _white_pixels(m_plane, rgb_coarse, A, size, centres, allowed, np.float32(band), WHITE_STEP)
+    if white.shape[0] < MIN_WHITE_PIXELS:
         return None
-    return median(rgb_coarse[r[white], c[white]])
+    return median(white)
+
+
+@jit
+def _white_pixels(
+    m: np.ndarray,
+    rgb: np.ndarray,
+    A: np.ndarray,
+    size: np.ndarray,
+    centres: np.ndarray,
+    allowed: np.ndarray,
+    band: np.float32,
+    step: int,
+) -> np.ndarray:
+    """(k, 3) uint8 colours of :func:`board_white`'s pixels: of every ``step``-th row and column of
+    m (3, h, w) float32 (plane frame) within ``band`` of the plane, whose board-frame xy
+    ``A[:, :2] @ m[:2] + A[:, 2]`` lies in the middle 60 % of a white field. size: (2,) a field's
+    size; centres: (rows, cols, 2) and allowed (rows, cols) of :func:`_fields`."""
+    _, h, w = m.shape
+    n_rows, n_cols = allowed.shape
+    out = np.empty((((h + step - 1) // step) * ((w + step - 1) // step), 3), dtype=np.uint8)
+    k = 0
+    for r in range(0, h, step):
+        for c in range(0, w, step):
+            if not abs(m[2, r, c]) < band:  # NaN: not on the board
+                continue
+            x, y = np.float64(m[0, r, c]), np.float64(m[1, r, c])
+            bx, by = A[0, 0] * x + A[0, 1] * y + A[0, 2], A[1, 0] * x + A[1, 1] * y + A[1, 2]
+            i, j = math.floor(bx / size[0] + n_rows / 2), math.floor(by / size[1] + n_cols / 2)
+            if i < 0 or i >= n_rows or j < 0 or j >= n_cols or allowed[i, j]:
+                continue
+            if abs(bx - centres[i, j, 0]) < 0.3 * size[0] and abs(by - centres[i, j, 1]) < 0.3 * size[1]:
+                out[k] = rgb[r, c]
+                k += 1
+    return out[:k]
 
 
 @lru_cache(maxsize=16)

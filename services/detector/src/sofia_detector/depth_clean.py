@@ -15,7 +15,7 @@ import numpy as np
 
 from .components import label8
 from .kernels import jit
-from .pixels import median
+from .pixels import grow_jit, median, median_u8_at
 
 EIGHT = np.ones((3, 3), dtype=bool)
 
@@ -78,7 +78,7 @@ F32_3, F32_8 = np.float32(3.0), np.float32(8.0)
 def median_chroma(rgb: np.ndarray, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
     """(4,) :func:`chroma` of the median colour of the pixels (rows, cols) (n,) of ``rgb`` (h, w, 3)
     uint8: an object's own colour."""
-    return chroma(median(rgb[rows, cols]))
+    return chroma(median_u8_at(rgb, rows, cols))
 
 
 @jit
@@ -90,12 +90,19 @@ def _chroma_px(px: np.ndarray) -> tuple[np.float32, np.float32, np.float32, np.f
 
 
 @jit
+def same_colour(px: np.ndarray, own: np.ndarray, tol: np.float32) -> bool:
+    """One colour px (3,) uint8 within ``tol`` of ``own`` (4,) float32: :func:`colour_distance` of
+    its :func:`chroma`, in float32 as numpy evaluates it."""
+    f0, f1, f2, f3 = _chroma_px(px)
+    d0, d1, d2, d3 = f0 - own[0], f1 - own[1], f2 - own[2], f3 - own[3]
+    return bool(np.sqrt((d0 * d0 + d1 * d1) + (d2 * d2 + d3 * d3)) < tol)
+
+
+@jit
 def _of_colour(px: np.ndarray, own: np.ndarray, tol: np.float32) -> np.ndarray:
     out = np.empty(px.shape[0], dtype=np.bool_)
-    for i in range(px.shape[0]):  # colour_distance, in float32 as numpy evaluates it
-        f0, f1, f2, f3 = _chroma_px(px[i])
-        d0, d1, d2, d3 = f0 - own[0], f1 - own[1], f2 - own[2], f3 - own[3]
-        out[i] = np.sqrt((d0 * d0 + d1 * d1) + (d2 * d2 + d3 * d3)) < tol
+    for i in range(px.shape[0]):
+        out[i] = same_colour(px[i], own, tol)
     return out
 
 
@@ -136,7 +143,7 @@ def bridge(
     labels, n = label8(seeds)
     if rgb is None or n < 2 or not invalid.any():
         return labels, n
-    grown, joined = _bridge(labels, n, np.ascontiguousarray(invalid), np.ascontiguousarray(rgb), tol, steps)
+    grown, joined = _bridge(labels, n, np.ascontiguousarray(invalid), rgb, tol, steps)  # rgb: any strides
     return label8(grown > 0) if joined else (labels, n)
 
 
@@ -160,13 +167,7 @@ def _bridge(
                 counts[labels[r, c]] += 1.0
     for k in range(n + 1):
         mean[k] /= max(counts[k], 1.0)
-    todo = np.zeros((h, w), dtype=np.bool_)  # the missing pixels growth can reach
-    for r in range(h):
-        for c in range(w):
-            if invalid[r, c]:
-                todo[r, c] = labels[
-                    max(r - steps, 0) : r + steps + 1, max(c - steps, 0) : c + steps + 1
-                ].any()
+    todo = invalid & grow_jit(labels > 0, 2 * steps + 1)  # the missing pixels growth can reach
     rs, cs = np.nonzero(todo)
     grown = labels.copy()
     lab = np.zeros(rs.size, dtype=np.int32)

@@ -17,8 +17,7 @@ from .depth_clean import pixel_spacing
 from .errors import BadCloud
 from .footprint import ObjectEstimate, estimate_object, half_turn, length_first
 from .params import DetectorParams
-from .pixels import median
-from .plane import coords
+from .pixels import median, median_u8_at
 from .segment import Levels, ObjectPoints, organized_objects
 from .silhouette import silhouette
 from .unorganized import unorganized_objects
@@ -133,15 +132,14 @@ def _colour(
     if obj.rgb is None or obj.rows is None or obj.cols is None:
         return None, None
     rows, cols = obj.rows[sel], obj.cols[sel]
-    pix = obj.rgb[rows, cols].reshape(-1, 3)
-    named = name_colour(median(pix), white, params.palette)
+    named = name_colour(median_u8_at(obj.rgb, rows, cols), white, params.palette)
     if obj.window is None or not shaded_like_another(named[0], params.palette):
         return named
     lit = lit_share(obj.window, rows, cols)
     seen = np.isfinite(lit)  # each face's shading undone where its normal is measured
     if np.count_nonzero(seen) < 3:
         return named
-    return name_colour(median(pix[seen] / lit[seen, None]), white, params.palette)
+    return name_colour(median(obj.rgb[rows[seen], cols[seen]] / lit[seen, None]), white, params.palette)
 
 
 def _from_silhouettes(
@@ -207,11 +205,8 @@ def detect(
     n_total = cloud.shape[0] * cloud.shape[1] if organized else cloud.shape[0]
     if n_total == 0:
         return Detection(**head, status="no_board", detail="the cloud has no points")
-    if organized:
-        coarse = coords(cloud[:: params.stride, :: params.stride])
-    else:  # every point: subsampling an unorganized cloud can leave stripes (a flattened image)
-        coarse = coords(cloud)
-    fit = fit_board(coarse, board, params)
+    # unorganized: every point (subsampling an unorganized cloud can leave stripes: a flattened image)
+    fit = fit_board(cloud[:: params.stride, :: params.stride] if organized else cloud, board, params)
     t1 = time.perf_counter()
     timings = {"board_ms": (t1 - t0) * 1e3}
     if fit is None:

@@ -18,9 +18,9 @@ from __future__ import annotations
 import numpy as np
 
 from .components import label8_jit, max_filter_jit
-from .depth_clean import median_chroma, of_colour
+from .depth_clean import median_chroma, same_colour
 from .kernels import jit
-from .pixels import grow, median, where
+from .pixels import grow_jit, median, where
 from .segment import ObjectPoints
 
 MIN_SHARE = 0.03  # fewer missing pixels of the top's colour than this share of the top: nothing to do
@@ -126,6 +126,36 @@ def bordered_patches(
     return out
 
 
+@jit
+def _of_top_colour(
+    grid: np.ndarray, h: np.ndarray, rgb: np.ndarray, own: np.ndarray, tol: np.float32
+) -> tuple[bool, np.ndarray, int, int, int]:
+    """The missing depth of a top's colour around the top ``grid`` (h, w) bool: whether any pixel
+    within one of it is such; the pixels without depth (``h`` (h, w) float32 NaN) of its colour
+    (``own`` (4,) :func:`.depth_clean.chroma` within ``tol`` of ``rgb`` (h, w, 3) uint8), and how
+    many; of every second row and column, the board pixels (within :data:`RAISED` of it) within
+    four of the top, and how many of them have its colour."""
+    rows, cols = grid.shape
+    near = grow_jit(grid, 3)
+    same = np.zeros((rows, cols), dtype=np.bool_)
+    beside, n_same = False, 0
+    for r in range(rows):
+        for c in range(cols):
+            if np.isnan(h[r, c]) and same_colour(rgb[r, c], own, tol):
+                same[r, c] = True
+                n_same += 1
+                beside = beside or near[r, c]
+    raised = np.float32(RAISED)
+    around = grow_jit(grid[::2, ::2], 9)
+    n_board = n_board_same = 0
+    for r in range(around.shape[0]):
+        for c in range(around.shape[1]):
+            if around[r, c] and abs(h[2 * r, 2 * c]) < raised:
+                n_board += 1
+                n_board_same += same_colour(rgb[2 * r, 2 * c], own, tol)
+    return beside, same, n_same, n_board, n_board_same
+
+
 def unseen_top(obj: ObjectPoints, face: np.ndarray, tol: float) -> np.ndarray:
     """(k, 2) board-frame xy (metres) of the missing-depth pixels of the top's colour that join the
     top ``face`` ((n,) bool over the object's points) on the pixel grid and are not bordered by the
@@ -141,23 +171,13 @@ def unseen_top(obj: ObjectPoints, face: np.ndarray, tol: float) -> np.ndarray:
     grid = np.zeros(obj.shape, dtype=bool)
     grid[fr, fc] = True
     h = obj.window[2]
-    missing = np.isnan(h)
-    a_r, a_c = where(missing & grow(grid, 3))  # missing pixels next to the top
-    if a_r.size == 0:
-        return none
     own = median_chroma(obj.rgb, fr[::4], fc[::4])
-    if not of_colour(obj.rgb[a_r, a_c], own, tol).any():
-        return none  # none of the top's colour (the board in the object's stereo shadow)
-    m_r, m_c = where(missing)
-    same = np.zeros_like(missing)
-    same[m_r, m_c] = of_colour(obj.rgb[m_r, m_c], own, tol)
-    if np.count_nonzero(same) < MIN_SHARE * fr.size:
+    beside, same, n_same, n_board, n_board_same = _of_top_colour(grid, h, obj.rgb, own, np.float32(tol))
+    if not beside:
+        return none  # no missing pixel next to the top of its colour (the board in its stereo shadow)
+    if n_same < MIN_SHARE * fr.size:
         return none
-    with np.errstate(invalid="ignore"):
-        board = (np.abs(h[::2, ::2]) < RAISED) & grow(grid[::2, ::2], 9)
-    b_r, b_c = where(board)
-    b_r, b_c = 2 * b_r, 2 * b_c
-    if b_r.size and np.mean(of_colour(obj.rgb[b_r, b_c], own, tol)) > BOARD_LIKE:
+    if n_board and n_board_same / n_board > BOARD_LIKE:
         return none  # the object stands on its own colour
     face_h = obj.b[2, face]
     lo, mid = float(face_h.min()), float(median(face_h))

@@ -91,6 +91,27 @@ def grid_boundary(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return _boundary(np.ascontiguousarray(mask, dtype=np.bool_))  # type: ignore[no-any-return]
 
 
+@jit
+def boundary_points(rows: np.ndarray, cols: np.ndarray, h: int, w: int) -> np.ndarray:
+    """:func:`grid_boundary` of pixels given by index: (k,) indices into rows, cols (n,) (distinct
+    pixels of an (h, w) grid) of the first and last pixel of every non-empty row, then of every
+    non-empty column, in :func:`grid_boundary`'s order."""
+    first_c, last_c = np.full(h, -1), np.full(h, -1)  # the point at the row's first, last column
+    first_r, last_r = np.full(w, -1), np.full(w, -1)
+    for i in range(rows.size):
+        r, c = rows[i], cols[i]
+        if first_c[r] < 0 or c < cols[first_c[r]]:
+            first_c[r] = i
+        if last_c[r] < 0 or c > cols[last_c[r]]:
+            last_c[r] = i
+        if first_r[c] < 0 or r < rows[first_r[c]]:
+            first_r[c] = i
+        if last_r[c] < 0 or r > rows[last_r[c]]:
+            last_r[c] = i
+    by_row, by_col = first_c[first_c >= 0], first_r[first_r >= 0]
+    return np.concatenate((by_row, last_c[last_c >= 0], by_col, last_r[last_r >= 0]))
+
+
 def hull(xy: np.ndarray) -> np.ndarray:
     """(k, 2) float64 convex hull vertices, counter-clockwise (the points themselves when they span
     no area)."""

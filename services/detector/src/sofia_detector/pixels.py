@@ -33,6 +33,27 @@ def grow(mask: np.ndarray, size: int) -> np.ndarray:
     return out
 
 
+@jit
+def grow_jit(mask: np.ndarray, size: int) -> np.ndarray:
+    """:func:`grow`, callable from compiled code: (h, w) bool ``mask`` dilated by a ``size`` x
+    ``size`` square (``size`` odd), along the rows then the columns."""
+    k = size // 2
+    h, w = mask.shape
+    rows = np.zeros((h, w), dtype=np.bool_)
+    for r in range(h):
+        for c in range(w):
+            if mask[r, c]:
+                for rr in range(max(r - k, 0), min(r + k + 1, h)):
+                    rows[rr, c] = True
+    out = np.zeros((h, w), dtype=np.bool_)
+    for r in range(h):
+        for c in range(w):
+            if rows[r, c]:
+                for cc in range(max(c - k, 0), min(c + k + 1, w)):
+                    out[r, cc] = True
+    return out
+
+
 def shrink(mask: np.ndarray, size: int) -> np.ndarray:
     """(h, w) bool ``mask`` eroded by a ``size`` x ``size`` square (``size`` odd); pixels outside
     the image do not erode it."""
@@ -57,16 +78,33 @@ def median(x: np.ndarray) -> np.ndarray:
 @jit
 def _median_u8(px: np.ndarray) -> np.ndarray:
     """(3,) float64 median of each channel of (n, 3) uint8 colours (n >= 1), by counting."""
-    n = px.shape[0]
+    counts = np.zeros((3, 256), dtype=np.int64)
+    for i in range(px.shape[0]):
+        for ch in range(3):
+            counts[ch, px[i, ch]] += 1
+    return _counted_median(counts, px.shape[0])
+
+
+@jit
+def median_u8_at(rgb: np.ndarray, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
+    """``median(rgb[rows, cols])`` without gathering the colours: (3,) float64 median of each
+    channel of the pixels (rows, cols) (n,) (n >= 1) of ``rgb`` (h, w, 3) uint8 (any strides)."""
+    counts = np.zeros((3, 256), dtype=np.int64)
+    for i in range(rows.size):
+        for ch in range(3):
+            counts[ch, rgb[rows[i], cols[i], ch]] += 1
+    return _counted_median(counts, rows.size)
+
+
+@jit
+def _counted_median(counts: np.ndarray, n: int) -> np.ndarray:
+    """(3,) float64 median of each channel from its value counts (3, 256) of n colours."""
     out = np.empty(3)
+    lo_rank, hi_rank = (n - 1) // 2, n // 2  # the middle one or two, 0-based
     for ch in range(3):
-        counts = np.zeros(256, dtype=np.int64)
-        for i in range(n):
-            counts[px[i, ch]] += 1
-        lo_rank, hi_rank = (n - 1) // 2, n // 2  # the middle one or two, 0-based
         seen, lo, hi = 0, -1, -1
         for v in range(256):
-            seen += counts[v]
+            seen += counts[ch, v]
             if lo < 0 and seen > lo_rank:
                 lo = v
             if seen > hi_rank:

@@ -13,11 +13,14 @@ rectangle than to any circle, which tells boxes from cylinders. When the top its
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from .components import fill_holes
+from .kernels import jit
 from .outline import Rect
-from .pixels import grow, median, where
+from .pixels import median
 from .segment import ObjectPoints
 
 MIN_RIM = 12  # fewest rim pixels for a circle
@@ -50,18 +53,8 @@ def rim_xy(obj: ObjectPoints, face: np.ndarray, top: float, drop: float) -> tupl
     r1, c1 = min(int(fr.max()) + 2, obj.shape[0]), min(int(fc.max()) + 2, obj.shape[1])
     grid = np.zeros((r1 - r0, c1 - c0), dtype=bool)
     grid[fr - r0, fc - c0] = True
-    grid = fill_holes(grid)
-    h = np.full((r1 - r0 + 2, c1 - c0 + 2), np.nan, dtype=np.float32)
-    h[1:-1, 1:-1] = obj.window[2, r0:r1, c0:c1]
-    with np.errstate(invalid="ignore"):
-        below = h < top - drop
-    below[1:-1, 1:-1] |= grid
-    # a pixel of the top is a rim pixel when its whole 3 x 3 neighbourhood is the top or below it
-    ok = grid & ~(~grow(~grid, 3))  # the top's pixels that have a neighbour outside it
-    for dr in range(3):
-        for dc in range(3):
-            ok &= below[dr : dr + grid.shape[0], dc : dc + grid.shape[1]]
-    r, c = where(ok)
+    # numpy compares float32 heights with a Python float in float32: so does the kernel
+    r, c = _rim_pixels(fill_holes(grid), obj.window[2, r0:r1, c0:c1], np.float32(top - drop))
     xy = obj.window[:2, r + r0, c + c0].T.astype(np.float64)
     # pixel spacing: a sample of the top's pixels and their right-hand neighbours
     k = max(1, fr.size // 200)
@@ -74,20 +67,83 @@ def rim_xy(obj: ObjectPoints, face: np.ndarray, top: float, drop: float) -> tupl
     return xy[np.isfinite(xy).all(axis=1)], spacing
 
 
+@jit
+def _rim_pixels(grid: np.ndarray, h: np.ndarray, below: np.float32) -> tuple[np.ndarray, np.ndarray]:
+    """(rows, cols) (k,) of the pixels of a top ``grid`` (h, w) bool with a neighbour off it whose
+    whole 3 x 3 neighbourhood is the top or lower than ``below`` (heights ``h`` (h, w) float32,
+    NaN where missing; outside the grid's box is unseen: not lower), in row-major order."""
+    rows, cols = grid.shape
+    out_r, out_c = np.empty(rows * cols, dtype=np.intp), np.empty(rows * cols, dtype=np.intp)
+    k = 0
+    for r in range(1, rows - 1):  # a pixel on the box's border has unseen neighbours
+        for c in range(1, cols - 1):
+            if not grid[r, c]:
+                continue
+            off, ok = False, True
+            for rr in range(r - 1, r + 2):
+                for cc in range(c - 1, c + 2):
+                    if not grid[rr, cc]:
+                        off = True
+                        ok = ok and h[rr, cc] < below
+            if off and ok:
+                out_r[k], out_c[k] = r, c
+                k += 1
+    return out_r[:k], out_c[:k]
+
+
 def fit_circle(xy: np.ndarray) -> tuple[np.ndarray, float, float]:
     """Least-squares circle ``x^2 + y^2 + D x + E y + F = 0`` through xy (k, 2), k >= 3:
-    (centre (2,), radius, rms radial residual), all in the units of xy."""
-    m = xy.mean(axis=0)
-    p = xy - m  # centred: better conditioned
-    A = np.column_stack([p, np.ones(len(p))])
-    try:
-        sol = np.linalg.solve(A.T @ A, A.T @ -(p * p).sum(axis=1))
-    except np.linalg.LinAlgError:  # collinear points
-        return m, np.inf, np.inf
-    c = -sol[:2] / 2
-    r = float(np.sqrt(max(c @ c - sol[2], 0.0)))
-    rms = float(np.sqrt(np.mean((np.hypot(*(p - c).T) - r) ** 2)))
-    return c + m, r, rms
+    (centre (2,), radius, rms radial residual), all in the units of xy; radius and rms are inf
+    for collinear points."""
+    cx, cy, r, rms = _circle(np.ascontiguousarray(xy, dtype=np.float64))
+    return np.array([cx, cy]), r, rms
+
+
+@jit
+def _circle(xy: np.ndarray) -> tuple[float, float, float, float]:
+    """:func:`fit_circle` of xy (k, 2) float64 by its normal equations, centred on the points'
+    mean (better conditioned), solved by Cholesky: (centre x, centre y, radius, rms)."""
+    n = xy.shape[0]
+    mx, my = xy[:, 0].mean(), xy[:, 1].mean()
+    M, rhs = np.zeros((3, 3)), np.zeros(3)
+    row = np.ones(3)
+    for i in range(n):
+        row[0], row[1] = xy[i, 0] - mx, xy[i, 1] - my
+        q = -(row[0] * row[0] + row[1] * row[1])
+        for j in range(3):
+            rhs[j] += row[j] * q
+            for m in range(3):
+                M[j, m] += row[j] * row[m]
+    L = np.zeros((3, 3))
+    for i in range(3):
+        for j in range(i + 1):
+            s = M[i, j]
+            for m in range(j):
+                s -= L[i, m] * L[j, m]
+            if i == j:
+                if s <= 0.0:  # collinear points
+                    return mx, my, math.inf, math.inf
+                L[i, i] = math.sqrt(s)
+            else:
+                L[i, j] = s / L[j, j]
+    sol = np.empty(3)
+    for i in range(3):  # L y = rhs, then L^T sol = y
+        s = rhs[i]
+        for m in range(i):
+            s -= L[i, m] * sol[m]
+        sol[i] = s / L[i, i]
+    for i in range(2, -1, -1):
+        s = sol[i]
+        for m in range(i + 1, 3):
+            s -= L[m, i] * sol[m]
+        sol[i] = s / L[i, i]
+    cx, cy = -sol[0] / 2, -sol[1] / 2
+    r = math.sqrt(max(cx * cx + cy * cy - sol[2], 0.0))
+    ss = 0.0
+    for i in range(n):
+        e = math.hypot(xy[i, 0] - mx - cx, xy[i, 1] - my - cy) - r
+        ss += e * e
+    return cx + mx, cy + my, r, math.sqrt(ss / n)
 
 
 def widest_gap(xy: np.ndarray, center: np.ndarray) -> float:

@@ -14,10 +14,10 @@ from scipy import ndimage
 
 from .components import label8
 from .depth_clean import bridge, consistent_at
-from .outline import grid_boundary, hull
+from .outline import boundary_points, hull
 from .params import DetectorParams
 from .pixels import where
-from .plane import change_frame, coords
+from .plane import points_in_frame
 
 MIN_PART = 10  # pixels of the smallest part standing on an object that is joined to it
 PART_MARGIN = 0.005  # metres
@@ -48,10 +48,7 @@ class ObjectPoints:
             return hull(b[:2].T)
         rows = self.rows if subset is None else self.rows[subset]
         cols = self.cols if subset is None else self.cols[subset]
-        index = np.full(self.shape, -1, dtype=np.intp)
-        index[rows, cols] = np.arange(rows.size)
-        br, bc = grid_boundary(index >= 0)
-        return b[:2, index[br, bc]].T
+        return b[:2, boundary_points(rows, cols, self.shape[0], self.shape[1])].T
 
 
 def inside(xy: np.ndarray, half: np.ndarray) -> bool:
@@ -125,7 +122,7 @@ def organized_objects(
             continue  # a second seed of an object already found (holes in the cloud split it)
         r0, r1 = max((sl[0].start - pad) * s, 0), min((sl[0].stop + pad) * s, H)
         c0, c1 = max((sl[1].start - pad) * s, 0), min((sl[1].stop + pad) * s, W)
-        b = change_frame(coords(points_base[r0:r1, c0:c1]), T_base_board)
+        b = points_in_frame(points_base[r0:r1, c0:c1], T_base_board)
         with np.errstate(invalid="ignore"):
             mask = (b[2] > levels.point) & (b[2] < params.max_height)
         mask = consistent_at(b, mask, levels.delta)

@@ -22,7 +22,7 @@ from .depth_clean import EIGHT, median_chroma, of_colour
 from .holes import dlt
 from .outline import Rect, min_area_rect
 from .pixels import grow, median, where
-from .plane import change_frame, coords
+from .plane import points_in_frame
 from .segment import ObjectPoints
 
 RAISED = 0.005  # metres: a pixel with depth this close to the board is the board
@@ -112,7 +112,7 @@ def silhouette(
     h, w = obj.shape
     top, bottom = max(r0 - h, 0), min(r0 + 2 * h, H)
     left, right = max(c0 - w, 0), min(c0 + 2 * w, W)
-    b = change_frame(coords(cloud[top:bottom, left:right]), T_base_board)
+    b = points_in_frame(cloud[top:bottom, left:right], T_base_board)
     z = b[2]
     rows, cols = obj.rows + r0 - top, obj.cols + c0 - left
     own = median_chroma(obj.rgb, obj.rows, obj.cols)

@@ -22,13 +22,16 @@ from sofia_schemas.messages import Detection
 from sofia_schemas.ros2.encoding import decode_flange
 from sofia_schemas.rosmsg import encode_flange_pose
 
-from . import holes
+from . import caps, colour, holes, rim, visibility
+from .caps import fit_top
 from .components import fill_holes, label8, max_filter
 from .depth_clean import bridge, consistent_at, median_chroma, of_colour
 from .kernels import warm_kernels
-from .outline import grid_boundary
+from .outline import boundary_points, grid_boundary
 from .pick import PickParams, first_pick
-from .plane import change_frame, fit_plane
+from .pixels import median, median_u8_at
+from .plane import change_frame, fit_plane, points_in_frame
+from .rim import fit_circle
 
 log = logging.getLogger(__name__)
 
@@ -87,6 +90,44 @@ def compile_kernels() -> None:
     fit_plane(x, y, np.zeros_like(x), (0.01,), 3)
     f32 = np.float32
     holes.bordered_patches(two, ~two, xyz[2], f32(0.005), f32(0.0), f32(0.01), 3)
+    _compile_layouts(two, own)
+
+
+def _compile_layouts(two: np.ndarray, own: np.ndarray) -> None:
+    """The kernels whose arguments come in several layouts: a received cloud's are read-only views
+    of its bytes (strided when it has colours), an array's are writeable; whole (C-contiguous) or
+    every k-th (strided). ``two``: (6, 6) bool with two components; ``own``: (4,) float32 chroma."""
+    f32 = np.float32
+    xyz = np.zeros((3, 6, 6), dtype=np.float32)
+    rgb = np.zeros((6, 6, 3), dtype=np.uint8)
+    received = np.frombuffer(bytes(6 * 6 * 16), dtype=np.float32).reshape(6, 6, 4)  # x, y, z, bgr0
+    received_rgb = received.view(np.uint8).reshape(6, 6, 16)[..., 14:11:-1]
+    plain = np.frombuffer(bytes(6 * 6 * 12), dtype=np.float32).reshape(6, 6, 3)  # without colours
+    for points in (received[..., :3], plain, xyz.transpose(1, 2, 0).copy(), xyz.transpose(1, 2, 0)[:, ::2]):
+        points_in_frame(points, np.eye(4))
+    index = np.arange(6)
+    centres, allowed = np.zeros((2, 2, 2)), np.zeros((2, 2), dtype=bool)
+    for colours in (received_rgb, rgb[:, ::2]):
+        bridge(two, ~two, colours, 0.25)
+        visibility._holes(two, two, ~two, colours, own, f32(0.25))
+        holes._of_top_colour(two, xyz[2], colours, own, f32(0.25))
+        for at in (index, index[::2]):
+            median_u8_at(colours, at, at)
+        for m in (xyz, xyz[:, ::2, None, 0]):  # organized clouds' coarse grid, unorganized clouds' sample
+            colour._white_pixels(m, colours, np.eye(2, 3), np.ones(2), centres, allowed, f32(0.01), 3)
+    for h in (xyz[2], xyz[2, :, ::2]):  # a whole window, part of one
+        visibility._ring(two, h, f32(0.01), f32(0.01))
+        rim._rim_pixels(two, h, f32(0.01))
+    median(rgb[two])
+    boundary_points(index, index, 6, 6)
+    fit_circle(np.random.default_rng(0).normal(size=(20, 2)))
+    z = xyz[2].ravel()
+    for heights in (z, z[::2], z.astype(np.float64)):
+        fit_top(heights.astype(np.float64), heights.astype(np.float64), heights)
+    b = xyz.reshape(3, -1)
+    for points in (b, b[:, ::2], np.asfortranarray(b)):
+        caps._within(points, 0.0, 0.0, 0.01)
+    caps._line_rms(np.arange(3.0), np.arange(3.0))
 
 
 def warm_payloads(board: Board) -> tuple[bytearray, bytes]:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 from sofia_schemas import Board
@@ -36,7 +37,7 @@ class BoardFit:
     outline: Outline | None
     m_coarse: np.ndarray
 
-    @property
+    @cached_property
     def T_board_plane(self) -> np.ndarray:
         """(4, 4) the plane frame in the measured board frame."""
         return invert(self.T_base_board) @ self.T_base_plane  # type: ignore[no-any-return]

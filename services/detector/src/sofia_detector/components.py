@@ -85,6 +85,26 @@ def label8(mask: np.ndarray) -> tuple[np.ndarray, int]:
 
 
 @jit
+def label_boxes(labels: np.ndarray, n: int) -> np.ndarray:
+    """(n, 4) int64 bounding box ``(row start, row stop, col start, col stop)`` (stops exclusive) of
+    each label 1..n of ``labels`` (h, w) int, as ``scipy.ndimage.find_objects`` slices them; a label
+    without pixels gets (0, 0, 0, 0)."""
+    h, w = labels.shape
+    boxes = np.zeros((n, 4), dtype=np.int64)
+    boxes[:, 0], boxes[:, 2] = h, w
+    for r in range(h):
+        for c in range(w):
+            k = labels[r, c] - 1
+            if k >= 0:
+                boxes[k, 0], boxes[k, 1] = min(boxes[k, 0], r), max(boxes[k, 1], r + 1)
+                boxes[k, 2], boxes[k, 3] = min(boxes[k, 2], c), max(boxes[k, 3], c + 1)
+    for k in range(n):
+        if boxes[k, 1] == 0:
+            boxes[k] = 0
+    return boxes
+
+
+@jit
 def max_filter_jit(a: np.ndarray, k: int) -> np.ndarray:
     """:func:`max_filter` of a C-contiguous int32 array over a (2 k + 1) square, callable from
     compiled code."""

@@ -10,9 +10,8 @@ from collections.abc import Iterator
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import ndimage
 
-from .components import label8
+from .components import label8, label_boxes
 from .depth_clean import bridge, consistent_at
 from .outline import boundary_points, hull
 from .params import DetectorParams
@@ -104,12 +103,13 @@ def organized_objects(
         seeds = (m_coarse[2] > levels.seed) & (m_coarse[2] < params.max_height)
     seeds = consistent_at(m_coarse, seeds, levels.delta_coarse)
     rgb_coarse = None if rgb is None else rgb[::s, ::s]
-    labels, _ = bridge(seeds, ~np.isfinite(m_coarse[2]), rgb_coarse, levels.colour_tol)
+    labels, n = bridge(seeds, ~np.isfinite(m_coarse[2]), rgb_coarse, levels.colour_tol)
     claimed: list[tuple[int, int, np.ndarray]] = []  # (row, col, mask) of the objects found so far
     pad = 2
-    for i, sl in enumerate(ndimage.find_objects(labels), start=1):
-        if sl is None:
+    for i, (b_r0, b_r1, b_c0, b_c1) in enumerate(label_boxes(labels, n).tolist(), start=1):
+        if b_r1 == 0:
             continue
+        sl = (slice(b_r0, b_r1), slice(b_c0, b_c1))
         comp = (labels[sl] == i) & seeds[sl]
         sr, sc = where(comp)
         if sr.size < params.min_seed_pixels:

@@ -24,7 +24,7 @@ from sofia_schemas.rosmsg import encode_flange_pose
 
 from . import caps, colour, holes, rim, visibility
 from .caps import fit_top
-from .components import fill_holes, label8, max_filter
+from .components import fill_holes, label8, label_boxes, max_filter
 from .depth_clean import bridge, consistent_at, median_chroma, of_colour
 from .kernels import warm_kernels
 from .outline import boundary_points, grid_boundary
@@ -77,6 +77,7 @@ def compile_kernels() -> None:
     two = np.zeros((6, 6), dtype=bool)
     two[1, 1] = two[4, 4] = True  # two components
     max_filter(label8(two)[0], 3)
+    label_boxes(*label8(two))
     fill_holes(two)
     grid_boundary(two)
     xyz = np.zeros((3, 6, 6), dtype=np.float32)

@@ -36,21 +36,24 @@ def grow(mask: np.ndarray, size: int) -> np.ndarray:
 @jit
 def grow_jit(mask: np.ndarray, size: int) -> np.ndarray:
     """:func:`grow`, callable from compiled code: (h, w) bool ``mask`` dilated by a ``size`` x
-    ``size`` square (``size`` odd), along the rows then the columns."""
+    ``size`` square (``size`` odd), along the columns then the rows, as :func:`grow` does."""
     k = size // 2
     h, w = mask.shape
-    rows = np.zeros((h, w), dtype=np.bool_)
+    rows = mask.copy()
+    for d in range(1, k + 1):
+        for r in range(d, h):
+            for c in range(w):
+                rows[r, c] |= mask[r - d, c]
+        for r in range(h - d):
+            for c in range(w):
+                rows[r, c] |= mask[r + d, c]
+    out = rows.copy()
     for r in range(h):
-        for c in range(w):
-            if mask[r, c]:
-                for rr in range(max(r - k, 0), min(r + k + 1, h)):
-                    rows[rr, c] = True
-    out = np.zeros((h, w), dtype=np.bool_)
-    for r in range(h):
-        for c in range(w):
-            if rows[r, c]:
-                for cc in range(max(c - k, 0), min(c + k + 1, w)):
-                    out[r, cc] = True
+        for d in range(1, k + 1):
+            for c in range(d, w):
+                out[r, c] |= rows[r, c - d]
+            for c in range(w - d):
+                out[r, c] |= rows[r, c + d]
     return out
 
 

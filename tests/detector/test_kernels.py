@@ -149,7 +149,7 @@ HELPERS = {
     "pixels._counted_median",
     "pixels.grow_jit",
     "kernels._turn",
-    "kernels._solve4",
+    "kernels.solve_spd",
 }
 
 

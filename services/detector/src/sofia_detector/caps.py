@@ -9,7 +9,7 @@ import math
 
 import numpy as np
 
-from .kernels import _solve4, cone_gauss_newton, jit
+from .kernels import cone_gauss_newton, jit, solve_spd
 from .outline import Rect
 
 REACH = 0.85  # a cone's farthest visible points lie at least this share of its base radius out
@@ -44,10 +44,10 @@ def _cap(x: np.ndarray, y: np.ndarray, h: np.ndarray) -> tuple[np.ndarray, float
     for j in range(4):
         for m in range(j):
             M[m, j] = M[j, m]
-    coef = _solve4(M, rhs)
+    coef = solve_spd(M, rhs)
     e3 = np.zeros(4)
     e3[3] = 1.0
-    inv_33 = _solve4(M, e3)[3]  # (M^-1)[3, 3]
+    inv_33 = solve_spd(M, e3)[3]  # (M^-1)[3, 3]
     rss = 0.0
     for i in range(n):
         r = np.float64(h[i]) - (

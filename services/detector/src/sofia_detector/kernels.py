@@ -93,30 +93,31 @@ def least_area_box(v: np.ndarray, max_yaw: float) -> tuple[float, np.ndarray, np
 
 
 @jit
-def _solve4(A: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """x of ``A x = b`` for a (4, 4) symmetric positive definite A (Cholesky); NaN when it is not."""
-    L = np.zeros((4, 4))
-    for i in range(4):
+def solve_spd(A: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """x of ``A x = b`` for an (n, n) symmetric positive definite A (Cholesky); NaN when it is not."""
+    n = A.shape[0]
+    L = np.zeros((n, n))
+    for i in range(n):
         for j in range(i + 1):
             s = A[i, j]
             for m in range(j):
                 s -= L[i, m] * L[j, m]
             if i == j:
                 if s <= 0.0:
-                    return np.full(4, np.nan)
+                    return np.full(n, np.nan)
                 L[i, i] = math.sqrt(s)
             else:
                 L[i, j] = s / L[j, j]
-    y = np.empty(4)
-    for i in range(4):
+    y = np.empty(n)
+    for i in range(n):
         s = b[i]
         for m in range(i):
             s -= L[i, m] * y[m]
         y[i] = s / L[i, i]
-    x = np.empty(4)
-    for i in range(3, -1, -1):
+    x = np.empty(n)
+    for i in range(n - 1, -1, -1):
         s = y[i]
-        for m in range(i + 1, 4):
+        for m in range(i + 1, n):
             s -= L[m, i] * x[m]
         x[i] = s / L[i, i]
     return x
@@ -147,7 +148,7 @@ def cone_gauss_newton(
             JtJ[a, a] += 1e-9
             for b in range(a):
                 JtJ[b, a] = JtJ[a, b]
-        step = _solve4(JtJ, Jtr)
+        step = solve_spd(JtJ, Jtr)
         p -= step
         if not np.isfinite(step).all() or max(abs(step[2]), abs(step[3])) < tol:
             break

@@ -18,7 +18,7 @@ import math
 import numpy as np
 
 from .components import fill_holes
-from .kernels import jit
+from .kernels import jit, solve_spd
 from .outline import Rect
 from .pixels import median
 from .segment import ObjectPoints
@@ -114,29 +114,9 @@ def _circle(xy: np.ndarray) -> tuple[float, float, float, float]:
             rhs[j] += row[j] * q
             for m in range(3):
                 M[j, m] += row[j] * row[m]
-    L = np.zeros((3, 3))
-    for i in range(3):
-        for j in range(i + 1):
-            s = M[i, j]
-            for m in range(j):
-                s -= L[i, m] * L[j, m]
-            if i == j:
-                if s <= 0.0:  # collinear points
-                    return mx, my, math.inf, math.inf
-                L[i, i] = math.sqrt(s)
-            else:
-                L[i, j] = s / L[j, j]
-    sol = np.empty(3)
-    for i in range(3):  # L y = rhs, then L^T sol = y
-        s = rhs[i]
-        for m in range(i):
-            s -= L[i, m] * sol[m]
-        sol[i] = s / L[i, i]
-    for i in range(2, -1, -1):
-        s = sol[i]
-        for m in range(i + 1, 3):
-            s -= L[m, i] * sol[m]
-        sol[i] = s / L[i, i]
+    sol = solve_spd(M, rhs)
+    if not np.isfinite(sol).all():  # collinear points
+        return mx, my, math.inf, math.inf
     cx, cy = -sol[0] / 2, -sol[1] / 2
     r = math.sqrt(max(cx * cx + cy * cy - sol[2], 0.0))
     ss = 0.0

@@ -53,7 +53,7 @@ def rim_xy(obj: ObjectPoints, face: np.ndarray, top: float, drop: float) -> tupl
     r1, c1 = min(int(fr.max()) + 2, obj.shape[0]), min(int(fc.max()) + 2, obj.shape[1])
     grid = np.zeros((r1 - r0, c1 - c0), dtype=bool)
     grid[fr - r0, fc - c0] = True
-    # numpy compares float32 heights with a Python float in float32: so does the kernel
+    # the float32 heights are compared with a float32 threshold (as numpy compares them with a float)
     r, c = _rim_pixels(fill_holes(grid), obj.window[2, r0:r1, c0:c1], np.float32(top - drop))
     xy = obj.window[:2, r + r0, c + c0].T.astype(np.float64)
     # pixel spacing: a sample of the top's pixels and their right-hand neighbours
@@ -114,9 +114,10 @@ def _circle(xy: np.ndarray) -> tuple[float, float, float, float]:
             rhs[j] += row[j] * q
             for m in range(3):
                 M[j, m] += row[j] * row[m]
+    spread = M[0, 0] + M[1, 1]
     sol = solve_spd(M, rhs)
-    if not np.isfinite(sol).all():  # collinear points
-        return mx, my, math.inf, math.inf
+    if M[0, 0] * M[1, 1] - M[0, 1] * M[0, 1] <= 1e-12 * spread * spread or not np.isfinite(sol).all():
+        return mx, my, math.inf, math.inf  # collinear points
     cx, cy = -sol[0] / 2, -sol[1] / 2
     r = math.sqrt(max(cx * cx + cy * cy - sol[2], 0.0))
     ss = 0.0

@@ -128,7 +128,7 @@ def in_view(obj: ObjectPoints, top: float, tol: float, depth: np.ndarray | None 
     )
     mask = np.zeros((crop[0].stop - crop[0].start, crop[1].stop - crop[1].start), dtype=bool)
     mask[obj.rows - crop[0].start, obj.cols - crop[1].start] = True
-    # numpy compares float32 heights with a Python float in float32: so do the kernels
+    # the float32 heights are compared with float32 thresholds (as numpy compares them with a float)
     ring, n_ring, occluded, low, level, near = _ring(
         mask, obj.window[2][crop], np.float32(top + OCCLUDER_ABOVE), np.float32(BELOW_BOARD)
     )

@@ -1,0 +1,199 @@
+"""The compiled per-object steps give exactly what the numpy forms they replace give: the same
+pixels, counts, boxes and colours, on random windows and on arrays laid out as a received cloud's
+(read-only, strided, colours in reverse order); the circle and cap fits agree with a least-squares
+solve to rounding."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy import ndimage
+from sofia_detector import colour, holes, rim, visibility
+from sofia_detector.caps import fit_top
+from sofia_detector.components import label8, label_boxes
+from sofia_detector.depth_clean import median_chroma, of_colour
+from sofia_detector.outline import boundary_points, grid_boundary
+from sofia_detector.pixels import grow, grow_jit, median, median_u8_at, shrink
+from sofia_detector.plane import change_frame, coords, points_in_frame
+from sofia_detector.rim import fit_circle
+from sofia_schemas import Board
+
+
+def _windows(seed: int, n: int) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    """(mask (h, w) bool, heights (h, w) float32 with NaN holes, colours (h, w, 3) uint8 as a
+    received cloud gives them: a read-only view of bytes, in reverse channel order)."""
+    rng = np.random.default_rng(seed)
+    out = []
+    for _ in range(n):
+        h, w = int(rng.integers(6, 50)), int(rng.integers(6, 50))
+        mask = ndimage.binary_dilation(rng.random((h, w)) > 0.97, iterations=int(rng.integers(1, 5)))
+        z = np.where(mask, 0.03, 0.0) + rng.normal(0.0, 0.004, (h, w))
+        z[rng.random((h, w)) < rng.uniform(0.0, 0.4)] = np.nan
+        z[:, : int(rng.integers(0, 8))] = np.nan  # an invalid band
+        palette = np.array([[30, 60, 200], [200, 30, 30], [230, 230, 230]], dtype=np.uint8)
+        bgr0 = np.zeros((h, w, 4), dtype=np.uint8)
+        bgr0[..., :3] = palette[rng.integers(0, 3, (h, w))][..., ::-1]
+        rgb = np.frombuffer(bgr0.tobytes(), dtype=np.uint8).reshape(h, w, 4)[..., 2::-1]
+        out.append((mask, z.astype(np.float32), rgb))
+    return out
+
+
+def test_grow_jit_is_grow() -> None:
+    for mask, _, _ in _windows(0, 100):
+        for size in (3, 5, 7, 9):
+            assert np.array_equal(grow_jit(mask, size), grow(mask, size))
+
+
+def test_boundary_points_are_grid_boundary_of_the_pixels_in_any_order() -> None:
+    rng = np.random.default_rng(1)
+    for mask, _, _ in _windows(1, 100):
+        rows, cols = np.nonzero(mask)
+        order = rng.permutation(rows.size)
+        rows, cols = rows[order], cols[order]
+        index = np.full(mask.shape, -1)
+        index[rows, cols] = np.arange(rows.size)
+        br, bc = grid_boundary(index >= 0)
+        assert np.array_equal(boundary_points(rows, cols, *mask.shape), index[br, bc])
+
+
+def test_label_boxes_are_scipys_find_objects() -> None:
+    for mask, _, _ in _windows(2, 100):
+        labels, n = label8(mask)
+        boxes = [(s[0].start, s[0].stop, s[1].start, s[1].stop) for s in ndimage.find_objects(labels)]
+        assert label_boxes(labels, n).tolist() == [list(b) for b in boxes]
+
+
+def test_median_at_pixels_is_the_median_of_the_gathered_colours() -> None:
+    for mask, _, rgb in _windows(3, 100):
+        rows, cols = np.nonzero(mask)
+        if rows.size:
+            for r, c in ((rows, cols), (rows[::4], cols[::4])):
+                assert np.array_equal(median_u8_at(rgb, r, c), median(rgb[r, c]))
+                assert np.array_equal(median_chroma(rgb, r, c), median_chroma(np.array(rgb), r, c))
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+def test_points_in_frame_is_change_frame_of_the_copied_points(dtype: type) -> None:
+    rng = np.random.default_rng(4)
+    T = np.eye(4)
+    T[:3, :3] = np.linalg.qr(rng.normal(size=(3, 3)))[0]
+    T[:3, 3] = (0.5, -0.2, 0.1)
+    xyzw = rng.normal(0.0, 0.5, (24, 32, 4)).astype(dtype)
+    xyzw[rng.random((24, 32)) < 0.2, :3] = np.nan
+    received = np.frombuffer(xyzw.tobytes(), dtype=dtype).reshape(24, 32, 4)[..., :3]  # read-only, strided
+    for p in (received, received[::4, ::4], np.array(received), received.reshape(-1, 3)[::3]):
+        assert np.array_equal(points_in_frame(p, T), change_frame(coords(p), T), equal_nan=True)
+
+
+def _old_rim_pixels(grid: np.ndarray, h: np.ndarray, below: float) -> tuple[np.ndarray, np.ndarray]:
+    padded = np.full((h.shape[0] + 2, h.shape[1] + 2), np.nan, dtype=np.float32)
+    padded[1:-1, 1:-1] = h
+    with np.errstate(invalid="ignore"):
+        low = padded < below
+    low[1:-1, 1:-1] |= grid
+    ok = grid & grow(~grid, 3)
+    for dr in range(3):
+        for dc in range(3):
+            ok &= low[dr : dr + grid.shape[0], dc : dc + grid.shape[1]]
+    return np.nonzero(ok)  # type: ignore[return-value]
+
+
+def test_rim_pixels_are_the_numpy_forms() -> None:
+    for mask, z, _ in _windows(5, 150):
+        got = rim._rim_pixels(mask, z, np.float32(0.02))
+        want = _old_rim_pixels(mask, z, 0.02)
+        assert np.array_equal(got[0], want[0]) and np.array_equal(got[1], want[1])
+
+
+def test_ring_and_holes_around_an_object_are_the_numpy_forms() -> None:
+    for mask, z, rgb in _windows(6, 150):
+        ring, n, occluded, low, level, near = visibility._ring(mask, z, np.float32(0.04), np.float32(0.01))
+        with np.errstate(invalid="ignore"):
+            want_ring = grow(mask, 5) & ~mask
+            assert np.array_equal(ring, want_ring) and n == np.count_nonzero(want_ring)
+            assert occluded == np.count_nonzero(want_ring & (z > 0.04))
+            assert low == np.count_nonzero(want_ring & (z < -0.01))
+            assert level == np.count_nonzero(want_ring & (np.abs(z) <= 0.01))
+        assert np.array_equal(near, np.isnan(z) & grow(mask, 7))
+        if not mask.any():
+            continue
+        own = median_chroma(rgb, *np.nonzero(mask))
+        same = np.zeros_like(mask)
+        same[near] = of_colour(rgb[near], own, 0.25)
+        shadow = np.zeros_like(mask)
+        shadow[:, :-1] |= mask[:, 1:]
+        shadow[:, :-2] |= mask[:, 2:]
+        want_holes = np.count_nonzero(ring & grow(shrink(same, 3), 3) & ~shadow)
+        assert visibility._holes(mask, ring, near, rgb, own, np.float32(0.25)) == (
+            want_holes, np.count_nonzero(same),
+        )  # fmt: skip
+
+
+def test_missing_pixels_of_a_tops_colour_are_the_numpy_forms() -> None:
+    for mask, z, rgb in _windows(7, 150):
+        if not mask.any():
+            continue
+        own = median_chroma(rgb, *np.nonzero(mask))
+        beside, same, n_same, n_board, n_board_same = holes._of_top_colour(
+            mask, z, rgb, own, np.float32(0.25)
+        )
+        missing = np.isnan(z)
+        want = np.zeros_like(mask)
+        want[missing] = of_colour(rgb[missing], own, 0.25)
+        assert np.array_equal(same, want) and n_same == np.count_nonzero(want)
+        assert beside == bool((want & grow(mask, 3)).any())
+        with np.errstate(invalid="ignore"):
+            board = (np.abs(z[::2, ::2]) < holes.RAISED) & grow(mask[::2, ::2], 9)
+        r, c = np.nonzero(board)
+        assert n_board == r.size
+        assert n_board_same == np.count_nonzero(of_colour(rgb[2 * r, 2 * c], own, 0.25))
+
+
+def test_board_white_is_the_numpy_form() -> None:
+    board = Board.default()
+    rng = np.random.default_rng(8)
+    centres, allowed = colour._fields(board)
+    for _ in range(20):
+        T = np.eye(4)
+        yaw = rng.uniform(-0.1, 0.1)
+        T[:2, :2] = [[np.cos(yaw), -np.sin(yaw)], [np.sin(yaw), np.cos(yaw)]]
+        T[:2, 3] = rng.normal(0.0, 0.01, 2)
+        xy = rng.uniform(-0.3, 0.3, (2, 40, 50))
+        m = np.concatenate([xy, rng.normal(0.0, 0.003, (1, 40, 50))]).astype(np.float32)
+        m[:, rng.random((40, 50)) < 0.1] = np.nan
+        rgb = rng.integers(0, 256, (40, 50, 3), dtype=np.uint8)
+        with np.errstate(invalid="ignore"):
+            r, c = np.nonzero(np.abs(m[2, ::3, ::3]) < 0.004)
+        r, c = 3 * r, 3 * c
+        p = (T[:2, :2] @ m[:2, r, c]).T + T[:2, 3]
+        rc = board.field_of_board_xy(p)
+        i, j = np.clip(rc[:, 0], 0, None), np.clip(rc[:, 1], 0, None)
+        middle = np.all(np.abs(p - centres[i, j]) < 0.3 * np.array(board.field_size), axis=1)
+        white = (rc[:, 0] >= 0) & middle & ~allowed[i, j]
+        want = median(rgb[r[white], c[white]]) if np.count_nonzero(white) >= colour.MIN_WHITE_PIXELS else None
+        got = colour.board_white(m, rgb, T, board, 0.004)
+        assert (got is None and want is None) or np.array_equal(got, want)
+
+
+def test_circle_and_cap_fits_agree_with_a_least_squares_solve() -> None:
+    rng = np.random.default_rng(9)
+    for _ in range(50):
+        t = rng.uniform(0.0, rng.uniform(1.0, 2 * np.pi), 40)
+        xy = np.stack([0.1 + 0.03 * np.cos(t), -0.2 + 0.03 * np.sin(t)], axis=1) + rng.normal(
+            0, 1e-4, (40, 2)
+        )
+        m = xy.mean(axis=0)
+        p = xy - m
+        sol = np.linalg.lstsq(np.column_stack([p, np.ones(40)]), -(p * p).sum(axis=1), rcond=None)[0]
+        centre, radius, _ = fit_circle(xy)
+        np.testing.assert_allclose(centre, m - sol[:2] / 2, rtol=0, atol=1e-12)
+        np.testing.assert_allclose(radius, np.sqrt((sol[:2] @ sol[:2]) / 4 - sol[2]), rtol=0, atol=1e-12)
+        x, y = rng.normal(0.0, 0.02, (2, 200))
+        h = (0.05 + 0.1 * x - 0.2 * y - 8.0 * (x * x + y * y) + rng.normal(0, 1e-4, 200)).astype(np.float32)
+        A = np.stack([np.ones_like(x), x, y, x * x + y * y], axis=1)
+        fit = fit_top(x, y, h)
+        assert fit is not None
+        np.testing.assert_allclose(
+            fit[0], np.linalg.lstsq(A, h.astype(np.float64), rcond=None)[0], rtol=1e-9, atol=1e-12
+        )
+    assert fit_circle(np.array([[0.0, 0.0], [1.0, 1.0], [2.0, 2.0]]))[1] == np.inf  # collinear

@@ -8,7 +8,7 @@ import pytest
 from scipy import ndimage
 from sofia_detector.components import fill_holes, label8, max_filter
 from sofia_detector.depth_clean import chroma, colour_distance, of_colour
-from sofia_detector.outline import grid_boundary
+from sofia_detector.outline import boundary_points, grid_boundary
 from sofia_detector.pixels import median
 from sofia_detector.plane import fit_plane
 
@@ -49,6 +49,8 @@ def test_max_filter_and_fill_holes_are_scipys() -> None:
 
 
 def test_grid_boundary_is_the_first_and_last_cell_of_every_row_and_column() -> None:
+    """Of a mask, and of its pixels given by index in any order (:func:`boundary_points`)."""
+    rng = np.random.default_rng(2)
     for mask in _masks(2, 200):
         rows, cols = grid_boundary(mask)
         r_any, c_any = np.flatnonzero(mask.any(axis=1)), np.flatnonzero(mask.any(axis=0))
@@ -60,6 +62,10 @@ def test_grid_boundary_is_the_first_and_last_cell_of_every_row_and_column() -> N
             [np.argmax(mask, axis=1)[r_any], w - 1 - np.argmax(mask[:, ::-1], axis=1)[r_any], c_any, c_any]
         )
         assert np.array_equal(rows, ref_rows) and np.array_equal(cols, ref_cols)
+        r, c = np.nonzero(mask)
+        order = rng.permutation(r.size)
+        at = boundary_points(r[order], c[order], h, w)
+        assert np.array_equal(r[order][at], ref_rows) and np.array_equal(c[order][at], ref_cols)
 
 
 @pytest.mark.parametrize("tol", [0.05, 0.25, 0.6])

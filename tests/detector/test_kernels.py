@@ -148,6 +148,7 @@ HELPERS = {
     "depth_clean.same_colour",
     "pixels._counted_median",
     "pixels.grow_jit",
+    "plane._in_frame",
     "kernels._turn",
     "kernels.solve_spd",
 }

@@ -12,7 +12,6 @@ from sofia_detector import colour, holes, rim, visibility
 from sofia_detector.caps import fit_top
 from sofia_detector.components import label8, label_boxes
 from sofia_detector.depth_clean import median_chroma, of_colour
-from sofia_detector.outline import boundary_points, grid_boundary
 from sofia_detector.pixels import grow, grow_jit, median, median_u8_at, shrink
 from sofia_detector.plane import change_frame, coords, points_in_frame
 from sofia_detector.rim import fit_circle
@@ -42,18 +41,6 @@ def test_grow_jit_is_grow() -> None:
     for mask, _, _ in _windows(0, 100):
         for size in (3, 5, 7, 9):
             assert np.array_equal(grow_jit(mask, size), grow(mask, size))
-
-
-def test_boundary_points_are_grid_boundary_of_the_pixels_in_any_order() -> None:
-    rng = np.random.default_rng(1)
-    for mask, _, _ in _windows(1, 100):
-        rows, cols = np.nonzero(mask)
-        order = rng.permutation(rows.size)
-        rows, cols = rows[order], cols[order]
-        index = np.full(mask.shape, -1)
-        index[rows, cols] = np.arange(rows.size)
-        br, bc = grid_boundary(index >= 0)
-        assert np.array_equal(boundary_points(rows, cols, *mask.shape), index[br, bc])
 
 
 def test_label_boxes_are_scipys_find_objects() -> None:

@@ -15,6 +15,7 @@ import numpy as np
 
 from .components import label8
 from .kernels import hull_indices, jit, least_area_box
+from .pixels import where
 
 
 @dataclass(frozen=True)
@@ -61,34 +62,15 @@ def largest_component(mask: np.ndarray) -> np.ndarray:
     return labels == int(np.argmax(sizes))
 
 
-@jit
-def _boundary(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    h, w = mask.shape
-    first_c, last_c = np.full(h, -1), np.full(h, -1)
-    first_r, last_r = np.full(w, -1), np.full(w, -1)
-    for r in range(h):
-        for c in range(w):
-            if mask[r, c]:
-                if first_c[r] < 0:
-                    first_c[r] = c
-                last_c[r] = c
-                if first_r[c] < 0:
-                    first_r[c] = r
-                last_r[c] = r
-    rows, cols = np.flatnonzero(first_c >= 0), np.flatnonzero(first_r >= 0)
-    return (
-        np.concatenate((rows, rows, first_r[cols], last_r[cols])),
-        np.concatenate((first_c[rows], last_c[rows], cols, cols)),
-    )
-
-
 def grid_boundary(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Row/column extremes of a 2-D mask: every vertex of its convex hull is among them.
 
     Returns (rows (k,), cols (k,)) int indices of the first and last True cell of every non-empty
     row, then of every non-empty column.
     """
-    return _boundary(np.ascontiguousarray(mask, dtype=np.bool_))  # type: ignore[no-any-return]
+    rows, cols = where(mask)
+    at = boundary_points(rows, cols, *mask.shape)
+    return rows[at], cols[at]
 
 
 @jit

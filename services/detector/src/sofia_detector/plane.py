@@ -41,12 +41,21 @@ def coords(points: np.ndarray) -> np.ndarray:
 
 
 @jit
+def _in_frame(
+    R_t: np.ndarray, offset: np.ndarray, x: np.float32, y: np.float32, z: np.float32, i: int
+) -> np.float32:
+    """Coordinate ``i`` in frame f of the point (x, y, z) of frame a: ``(R^T p - R^T t)[i]``, float32
+    (:func:`_rotation_offset`)."""
+    return (R_t[i, 0] * x + R_t[i, 1] * y + R_t[i, 2] * z) - offset[i]  # type: ignore[no-any-return]
+
+
+@jit
 def _change_frame(c_a: np.ndarray, R_t: np.ndarray, offset: np.ndarray) -> np.ndarray:
     out = np.empty_like(c_a)
     for k in range(c_a.shape[1]):
         x, y, z = c_a[0, k], c_a[1, k], c_a[2, k]
         for i in range(3):
-            out[i, k] = (R_t[i, 0] * x + R_t[i, 1] * y + R_t[i, 2] * z) - offset[i]
+            out[i, k] = _in_frame(R_t, offset, x, y, z, i)
     return out
 
 
@@ -59,7 +68,7 @@ def _points_in_frame(p_a: np.ndarray, R_t: np.ndarray, offset: np.ndarray) -> np
         for c in range(w):
             x, y, z = np.float32(p_a[r, c, 0]), np.float32(p_a[r, c, 1]), np.float32(p_a[r, c, 2])
             for i in range(3):
-                out[i, r, c] = (R_t[i, 0] * x + R_t[i, 1] * y + R_t[i, 2] * z) - offset[i]
+                out[i, r, c] = _in_frame(R_t, offset, x, y, z, i)
     return out
 
 

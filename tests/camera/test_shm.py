@@ -31,11 +31,14 @@ from .conftest import flange_above
 SUBSCRIBER = """
 import hashlib, json, sys, zenoh
 from sofia_runtime import zenoh_config
+from sofia_runtime.shm import SharedReader
+reader = SharedReader()
 with zenoh.open(zenoh_config()) as session:
     def on(sample):
         data = sample.payload.to_bytes()
-        print(json.dumps({"sha": hashlib.sha256(data).hexdigest(), "shm": sample.payload.as_shm() is not None}),
-              flush=True)
+        view = reader.view(sample.payload, sample.attachment.to_bytes() if sample.attachment else None)
+        print(json.dumps({"sha": hashlib.sha256(data).hexdigest(), "shm": sample.payload.as_shm() is not None,
+                          "in_place": None if view is None else hashlib.sha256(view).hexdigest()}), flush=True)
     sub = session.declare_subscriber(sys.argv[1], on)
     print("ready", flush=True)
     sys.stdin.readline()
@@ -96,10 +99,10 @@ def test_a_subscriber_process_maps_the_cloud_bit_identical(board_world, make_rig
                 rig.pipeline.buffers = None
                 plain = rig.pipeline.build(pair, rig.camera, stamp_ns, None).cloud
                 rig.pipeline.buffers = buffers
-                payload = rig.pipeline.build(pair, rig.camera, stamp_ns, None).cloud
-                assert not isinstance(payload, bytearray), "written into shared memory"
+                out = rig.pipeline.build(pair, rig.camera, stamp_ns, None)
+                assert not isinstance(out.cloud, bytearray), "written into shared memory"
                 expected.append(hashlib.sha256(plain).hexdigest())
-                pub.put(payload)
+                pub.put(out.cloud, attachment=out.attachment)
             received = [json.loads(proc.stdout.readline()) for _ in expected]
             pub.undeclare()
     finally:
@@ -108,7 +111,12 @@ def test_a_subscriber_process_maps_the_cloud_bit_identical(board_world, make_rig
         proc.wait(10)
     assert [r["sha"] for r in received] == expected, "the subscriber gets the plain message's bytes"
     assert all(r["shm"] for r in received), "the subscriber's payload is the shared-memory buffer"
-    assert buffers.direct == 3 and buffers.copied == 0 and buffers.fallbacks == 0
+    assert [r["in_place"] for r in received] == expected, (
+        "and it reads the cloud there, where the camera said"
+    )
+    assert (
+        buffers.direct == 3 and buffers.copied == 0 and buffers.fallbacks == 0 and buffers.pool.unlocated == 0
+    )
 
 
 def test_without_room_in_dev_shm_clouds_are_put_as_bytes_and_counted(monkeypatch) -> None:  # type: ignore[no-untyped-def]

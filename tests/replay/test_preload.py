@@ -12,6 +12,7 @@ from typing import Any
 import pytest
 import zenoh
 from sofia_replay.stamps import stamp_ns
+from sofia_runtime.shm import SharedReader
 from sofia_runtime.zenoh_config import open_session
 from sofia_schemas import Keys
 from sofia_schemas.keys import TOPIC_CAMERA_POINTS, TOPIC_POINTS
@@ -63,15 +64,19 @@ def test_clouds_reach_a_local_subscriber_through_shared_memory(
     sofia_proc: Callable[..., Any], robot_id: str, shm: str,
 ) -> None:  # fmt: skip
     """By default the replayer writes each cloud into Zenoh shared memory and a local subscriber maps
-    it (no copy through the socket); ``SOFIA_ZENOH_SHM=off`` in the replayer's environment sends
-    them over the socket."""
+    it (no copy through the socket) and reads it in place where the replayer's attachment says it
+    lies; ``SOFIA_ZENOH_SHM=off`` in the replayer's environment sends them over the socket."""
     path, written = recording
     keys = Keys(robot_id)
     via_shm: list[bool] = []
     payloads: list[bytes] = []
+    in_place: list[bytes | None] = []
+    reader = SharedReader()
 
     def on_cloud(sample: zenoh.Sample) -> None:
         via_shm.append(sample.payload.as_shm() is not None)
+        view = reader.view(sample.payload, sample.attachment.to_bytes() if sample.attachment else None)
+        in_place.append(None if view is None else view.tobytes())
         payloads.append(sample.payload.to_bytes())
 
     with open_session() as session:
@@ -84,6 +89,8 @@ def test_clouds_reach_a_local_subscriber_through_shared_memory(
             time.sleep(0.02)
     assert payloads == written[TOPIC_POINTS]
     if shm == "off":
-        assert not any(via_shm)
+        assert not any(via_shm) and in_place == [None] * N
     else:  # written into shared memory from the first put on (a full pool would fall back to bytes)
         assert via_shm[0] and sum(via_shm) >= N - 1, via_shm
+        read = [(v, p) for v, p in zip(in_place, payloads, strict=True) if v is not None]
+        assert len(read) >= N - 1 and all(v == p for v, p in read) and reader.copied == 0, reader.reason

@@ -128,6 +128,8 @@ def test_replay_to_detector_gives_the_right_centre_for_every_frame(system: Syste
     dets.close()
     assert len(dets.items) == len(truth["frames"])  # exactly one detection per cloud
     _check_detections(dets.items, truth)
+    counters = ask(system.session, system.keys.status("detector"), ServiceStatus).counters
+    assert counters["shm_read"] >= 1 and counters["shm_copied"] == 0, counters  # read in place, none refused
 
 
 def test_detect_queries_latest_and_given_cloud(system: System) -> None:

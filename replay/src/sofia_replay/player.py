@@ -202,6 +202,7 @@ class Player:
             "loops": r.loops,
             "late_resyncs": r.late_resyncs,
             "shm_fallbacks": self._out.fallbacks,
+            "shm_unlocated": self._out.unlocated,
         }
         counters.update({f"topic:{t}": n for t, n in sorted(dict(r.per_topic).items())})
         return ServiceStatus(
@@ -249,7 +250,8 @@ class Player:
                     elif stop.is_set():
                         break
                     stamp = time.time_ns() if o.restamp and m.schema_name in HEADER_FIRST else None
-                    self._publisher(m.topic, m.schema_name).put(self._out.payload(m.data, stamp))
+                    payload, attachment = self._out.payload(m.data, stamp)
+                    self._publisher(m.topic, m.schema_name).put(payload, attachment=attachment)
                     r.published += 1
                     r.bytes += len(m.data)
                     r.per_topic[m.topic] += 1

@@ -15,6 +15,7 @@ from pathlib import Path
 from typing import Any
 
 import zenoh
+from sofia_runtime.shm import MARK, Locator, with_location
 from sofia_runtime.zenoh_config import shm_wanted
 
 from .mcap_io import RecordedMessage, iter_messages
@@ -69,17 +70,33 @@ class ShmBuffers:
         self._provider: Any = None
         self._pool_bytes = 0
         self.fallbacks = 0
+        self.unlocated = 0  # buffers put without their location: subscribers copy them
+        self._locator = Locator()
 
-    def payload(self, data: bytes | bytearray, stamp_ns: int | None) -> Any:
-        """What to put for ``data`` (restamped to ``stamp_ns`` unless None): a shared-memory buffer
-        for a large message, else the (restamped) bytes."""
+    def payload(self, data: bytes | bytearray, stamp_ns: int | None) -> tuple[Any, bytes | None]:
+        """(what to put for ``data``, restamped to ``stamp_ns`` unless None; its attachment): a
+        shared-memory buffer for a large message, with its :class:`~sofia_runtime.shm.Location` as
+        the attachment so that local subscribers read it in place, else the (restamped) bytes."""
         buf = self.alloc(len(data)) if self.enabled and len(data) >= self.MIN_BYTES else None
         if buf is None:
-            return data if stamp_ns is None else restamp_in_place(data, stamp_ns)
+            return (data if stamp_ns is None else restamp_in_place(data, stamp_ns)), None
         buf[:] = data
+        head = bytes(data[:MARK])
         if stamp_ns is not None:
-            buf[:HEADER_BYTES] = restamp(bytes(data[:HEADER_BYTES]), stamp_ns)
-        return buf
+            header = restamp(bytes(data[:HEADER_BYTES]), stamp_ns)
+            buf[:HEADER_BYTES] = header
+            head = (header + head[HEADER_BYTES:])[:MARK]
+        return buf, self.attachment(buf, len(data), head, bytes(data[-MARK:]))
+
+    def attachment(
+        self, buf: Any, size: int, head: bytes, tail: bytes, attachment: bytes | None = None
+    ) -> bytes | None:
+        """``attachment`` with the location of the message in ``buf`` (``size`` bytes from ``head`` to
+        ``tail``) appended, when it can be told (see :class:`~sofia_runtime.shm.Locator`)."""
+        location = self._locator.locate(buf, size, head, tail)
+        if location is None:
+            self.unlocated += 1
+        return with_location(attachment, location)
 
     def alloc(self, size: int) -> Any:
         """A shared-memory buffer (``zenoh.shm.ZShmMut``) of ``size`` bytes from the pool, or None when

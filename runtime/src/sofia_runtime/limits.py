@@ -12,6 +12,7 @@
 
 from __future__ import annotations
 
+import functools
 import logging
 import os
 
@@ -84,8 +85,14 @@ def _parse(text: str) -> list[tuple[str, int]]:
 
 def payload_limit(key: str, env: dict[str, str] | None = None) -> int:
     """The largest payload, in bytes, accepted on ``key``."""
-    env = dict(os.environ if env is None else env)
-    for pattern, limit in (*_parse(env.get(ENV_LIMITS, "")), *DEFAULT_LIMITS):
+    return _limit(key, (os.environ if env is None else env).get(ENV_LIMITS, ""))
+
+
+@functools.lru_cache(maxsize=1024)
+def _limit(key: str, spec: str) -> int:
+    """:func:`payload_limit` of ``key`` under ``$SOFIA_PAYLOAD_LIMITS`` = ``spec`` (kept: every
+    sample on a key asks again)."""
+    for pattern, limit in (*_parse(spec), *DEFAULT_LIMITS):
         if zenoh.KeyExpr(pattern).includes(key):
             return limit
     raise AssertionError("DEFAULT_LIMITS ends with '**'")  # pragma: no cover

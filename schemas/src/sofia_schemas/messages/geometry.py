@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from pydantic import Field, field_validator
 
@@ -20,7 +22,7 @@ class FlangePose(Message):
     @field_validator("rotation_xyzw")
     @classmethod
     def _unit(cls, q: tuple[float, float, float, float]) -> tuple[float, float, float, float]:
-        n = float(np.linalg.norm(q))
+        n = math.hypot(*q)  # one pose per message: no array
         if abs(n - 1.0) > 1e-3:
             raise ValueError(f"quaternion (x y z w) {q} has norm {n:.6f}, expected 1")
         return q

@@ -3,11 +3,13 @@ whether they are of the same instant, and whether the calibration's depth correc
 
 Attachment bytes: ``sofia.camera_correction=applied`` + newline + the JSON :class:`CloudMeta` when
 the correction was applied (``sofia_schemas.messages.calibration.correction_applied`` is then
-True, and the detector must not apply it again), else the JSON alone.
+True, and the detector must not apply it again), else the JSON alone; a cloud in shared memory has
+its location appended (:func:`sofia_runtime.shm.with_location`).
 """
 
 from __future__ import annotations
 
+from sofia_runtime.shm import split_location
 from sofia_schemas.messages import Message
 from sofia_schemas.messages.calibration import CORRECTION_APPLIED_ATTACHMENT
 
@@ -35,7 +37,7 @@ class CloudMeta(Message):
 
     @classmethod
     def from_attachment(cls, data: bytes) -> CloudMeta:
-        data = bytes(data)
+        data = split_location(data)[0] or b""
         if data.startswith(CORRECTION_APPLIED_ATTACHMENT):
             data = data[len(CORRECTION_APPLIED_ATTACHMENT) + 1 :]
         return cls.model_validate_json(data)

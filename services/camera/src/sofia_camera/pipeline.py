@@ -25,12 +25,14 @@ from .streams import FramePair, FrameSource
 @dataclass
 class Output:
     """A built cloud: CDR bytes (a ``bytearray``, or the Zenoh shared-memory buffer they were written
-    into), its CameraInfo, facts, and how long it took (ms)."""
+    into), its CameraInfo, facts, how long it took (ms), and the cloud's attachment (the facts, and
+    where a shared-memory cloud lies: :mod:`sofia_runtime.shm`)."""
 
     cloud: bytearray | Any
     camera_info: bytes
     meta: CloudMeta
     build_ms: float
+    attachment: bytes | None = None
 
 
 ALIGN_MODES = ("registration", "librealsense")
@@ -103,7 +105,10 @@ class CloudPipeline:
                 "depth_corrected": True, "correction_model": correction.model, "depth_scale": correction.depth_scale,
                 "depth_offset_m": correction.depth_offset_m, "correction_source": source_name,
             })  # fmt: skip
-        return Output(cloud, encode_camera_info(intr, stamp_ns, self.frame_id), meta, build_ms)
+        attachment = (
+            meta.attachment() if self.buffers is None else self.buffers.attachment(cloud, meta.attachment())
+        )
+        return Output(cloud, encode_camera_info(intr, stamp_ns, self.frame_id), meta, build_ms, attachment)
 
 
 def warm_kernels(frame_id: str = "camera_color_optical_frame") -> None:

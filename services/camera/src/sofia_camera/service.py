@@ -46,7 +46,8 @@ FIRST_FRAME_S = 5.0  # a camera just opened may take this long to deliver its fi
 
 @dataclass
 class Publishers:
-    points: Callable[[Any, bytes], None]  # the cloud: bytes, or a Zenoh shared-memory buffer
+    # the cloud (bytes, or a Zenoh shared-memory buffer) and its attachment
+    points: Callable[[Any, bytes | None], None]
     camera_info: Callable[[bytes], None]
 
 
@@ -159,7 +160,7 @@ class CameraService:
                 c["unsynced_dropped"] += 1
                 return
         out = self.pipeline.build(pair, self.source, stamp_ns, color_ns)
-        self.publish.points(out.cloud, out.meta.attachment())
+        self.publish.points(out.cloud, out.attachment)
         self.publish.camera_info(out.camera_info)
         with self._lock:
             self.last_stamp_ns = stamp_ns
@@ -191,7 +192,10 @@ class CameraService:
         info["shm_detail"] = None if buffers is None else buffers.detail
         if buffers is not None:  # clouds written into Zenoh shared memory; put as bytes (pool exhausted)
             counters.update(
-                shm_direct=buffers.direct, shm_copied=buffers.copied, shm_fallbacks=buffers.fallbacks
+                shm_direct=buffers.direct,
+                shm_copied=buffers.copied,
+                shm_fallbacks=buffers.fallbacks,
+                shm_unlocated=buffers.pool.unlocated,
             )
         return ServiceStatus(service="camera", stamp_ns=now_ns(), state=state, detail=detail,
                              counters=counters, info=info)  # fmt: skip

@@ -9,7 +9,8 @@ reports for it, used only after checking that the address lies in one of this pr
 segments in ``/dev/shm`` and that bytes assigned through Zenoh read back there. When that check
 fails the message is written into memory of its own and copied into the buffer once (``copied``);
 when SHM is off or the pool is exhausted (every buffer still held) it is published as a plain put
-(``fallbacks``).
+(``fallbacks``). Each buffer's location goes with the cloud (:meth:`CloudBuffers.attachment`), so
+that a local subscriber reads it in place (:mod:`sofia_runtime.shm`).
 """
 
 from __future__ import annotations
@@ -17,34 +18,18 @@ from __future__ import annotations
 import ctypes
 import logging
 import os
-import re
 import secrets
 from typing import Any
 
 import numpy as np
 import zenoh
 from sofia_replay.preload import ShmBuffers
+from sofia_runtime.shm import ADDRESS as _ADDRESS
+from sofia_runtime.shm import MARK as _MARK
+from sofia_runtime.shm import SHM_DIR, zenoh_segments
 
 log = logging.getLogger(__name__)
-_ADDRESS = re.compile(r"buf: PtrInSegment \{ ptr: 0x([0-9a-f]+) \}")
-_MARK = 16  # bytes checked at each end of a buffer
-SHM_DIR = "/dev/shm"
 SHM_RESERVE = 16 << 20  # left free in /dev/shm: the size of Zenoh's own transport pool
-
-
-def _zenoh_segments() -> list[tuple[int, int]]:
-    """(start, end) of this process's mappings of Zenoh segments (``/dev/shm/*.zenoh``)."""
-    ranges = []
-    try:
-        with open("/proc/self/maps") as maps:
-            for line in maps:
-                fields = line.split()
-                if len(fields) >= 6 and fields[5].startswith(f"{SHM_DIR}/") and fields[5].endswith(".zenoh"):
-                    start, end = fields[0].split("-")
-                    ranges.append((int(start, 16), int(end, 16)))
-    except OSError:  # no /proc: the address cannot be checked, messages are copied in
-        pass
-    return ranges
 
 
 def _shm_free() -> int | None:
@@ -69,10 +54,11 @@ class CloudBuffers:
         self.pool = ShmBuffers(enabled)
         self.direct = 0  # messages written straight into shared memory
         self.copied = 0  # written beside it, then copied in (the buffer's address could not be checked)
-        self._segments: list[tuple[int, int]] = []
+        self._segments: list[tuple[int, int, str]] = []
         self._reachable = True  # False once a buffer's address failed its check: copy from then on
         self._spare = bytearray()
         self._copy_into: Any = None  # the buffer the spare's message goes into at ``ready``
+        self._last: tuple[Any, np.ndarray] | None = None  # the last buffer taken, and its message
         self._checked_size = 0
         self._wanted = enabled
         self._refused = 0  # put as plain bytes because the pool could not be made
@@ -90,7 +76,7 @@ class CloudBuffers:
     def take(self, size: int) -> tuple[np.ndarray, Any]:
         """(view, payload): a writable (size,) uint8 array to write the message into, and the object to
         put once it is written (call :meth:`ready` first)."""
-        self._copy_into = None
+        self._copy_into = self._last = None
         if self.enabled and size != self._checked_size:
             self._check_room(size)
         try:
@@ -105,11 +91,13 @@ class CloudBuffers:
         view = self._mapped(buf, size) if self._reachable else None
         if view is not None:
             self.direct += 1
-            return view, buf
-        if len(self._spare) != size:
-            self._spare = bytearray(size)
-        self._copy_into = buf
-        return np.frombuffer(self._spare, np.uint8), buf
+        else:
+            if len(self._spare) != size:
+                self._spare = bytearray(size)
+            self._copy_into = buf
+            view = np.frombuffer(self._spare, np.uint8)
+        self._last = buf, view
+        return view, buf
 
     def ready(self, payload: Any) -> Any:
         """The payload to put once the view of the last :meth:`take` holds the message (a buffer whose
@@ -119,6 +107,16 @@ class CloudBuffers:
             self.copied += 1
         self._copy_into = None
         return payload
+
+    def attachment(self, payload: Any, attachment: bytes | None) -> bytes | None:
+        """``attachment`` for ``payload``: with the location of its message appended when it is the
+        shared-memory buffer of the last :meth:`take` (local subscribers then read it in place)."""
+        if self._last is None or payload is not self._last[0]:
+            return attachment
+        view = self._last[1]
+        return self.pool.attachment(
+            payload, view.size, view[:_MARK].tobytes(), view[-_MARK:].tobytes(), attachment
+        )
 
     def _check_room(self, size: int) -> None:
         self._checked_size = size
@@ -138,9 +136,9 @@ class CloudBuffers:
         if found is None or size < 2 * _MARK:
             return self._unreachable("this Zenoh does not report the buffer's address")
         address = int(found.group(1), 16)
-        if not any(a <= address and address + size <= b for a, b in self._segments):
-            self._segments = _zenoh_segments()
-            if not any(a <= address and address + size <= b for a, b in self._segments):
+        if not any(a <= address and address + size <= b for a, b, _ in self._segments):
+            self._segments = zenoh_segments()
+            if not any(a <= address and address + size <= b for a, b, _ in self._segments):
                 return self._unreachable(f"the buffer at {address:#x} is not in a mapped Zenoh segment")
         view = np.frombuffer(memoryview((ctypes.c_uint8 * size).from_address(address)).cast("B"), np.uint8)
         head, tail = secrets.token_bytes(_MARK), secrets.token_bytes(_MARK)

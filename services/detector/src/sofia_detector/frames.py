@@ -16,6 +16,7 @@ from pathlib import Path
 
 import numpy as np
 from sofia_schemas.files import FileContentError, load_json_or_yaml
+from sofia_schemas.messages import FlangePose
 from sofia_schemas.messages.calibration import CameraCorrection
 from sofia_schemas.transforms import as_transforms, interpolate_poses, invert, make_transform
 
@@ -55,6 +56,11 @@ def load_transform_file(path: str | Path) -> np.ndarray:
     return parse_transform(data, str(path))
 
 
+def pinned_transform(path: str | Path) -> tuple[np.ndarray, CameraCorrection]:
+    """``T_flange_cam`` and the camera correction of a saved calibration the user pins."""
+    return load_transform_file(path), load_correction_file(path)
+
+
 def load_correction_file(path: str | Path) -> CameraCorrection:
     """The ``camera_correction`` of a saved calibration (YAML or JSON); identity when it has none."""
     try:
@@ -83,13 +89,14 @@ class FlangeHistory:
     """The last ``maxlen`` flange poses, looked up by stamp (thread-safe)."""
 
     def __init__(self, maxlen: int = 400, tolerance_ns: int = DEFAULT_TOLERANCE_NS) -> None:
-        self._poses: deque[tuple[int, np.ndarray]] = deque(maxlen=maxlen)
+        self._poses: deque[tuple[int, np.ndarray | FlangePose]] = deque(maxlen=maxlen)
         self._lock = threading.Lock()
         self._arrived = threading.Condition(self._lock)
         self.tolerance_ns = tolerance_ns
 
-    def add(self, stamp_ns: int, T_base_flange: np.ndarray) -> None:
-        """Add a pose. A jump back in time of more than ``JUMP_BACK_NS`` (a replay restarted, another
+    def add(self, stamp_ns: int, T_base_flange: np.ndarray | FlangePose) -> None:
+        """Add a pose: a (4, 4) matrix, or a :class:`FlangePose` (validated; its matrix is computed
+        only if a cloud asks for it: base-frame clouds never do). A jump back in time of more than ``JUMP_BACK_NS`` (a replay restarted, another
         recording, a clock reset) clears the history first, as ROS tf does: poses of two time lines
         must not be mixed."""
         with self._arrived:
@@ -130,10 +137,10 @@ class FlangeHistory:
         stamps = [p[0] for p in poses]
         i = bisect_left(stamps, stamp_ns)
         if i < len(stamps) and stamps[i] == stamp_ns:
-            return poses[i][1]
+            return _matrix(poses[i][1])
         if 0 < i < len(stamps) and stamps[i] - stamps[i - 1] <= 2 * self.tolerance_ns:
             (t0, T0), (t1, T1) = poses[i - 1], poses[i]
-            return interpolate_poses(T0, T1, (stamp_ns - t0) / (t1 - t0))
+            return interpolate_poses(_matrix(T0), _matrix(T1), (stamp_ns - t0) / (t1 - t0))
         near = min((j for j in (i - 1, i) if 0 <= j < len(stamps)), key=lambda j: abs(stamps[j] - stamp_ns))
         gap = abs(stamps[near] - stamp_ns)
         if gap > self.tolerance_ns:
@@ -141,4 +148,9 @@ class FlangeHistory:
                 f"nearest flange pose is {gap / 1e6:.1f} ms from the cloud stamp {stamp_ns} "
                 f"(tolerance {self.tolerance_ns / 1e6:.1f} ms)"
             )
-        return poses[near][1]
+        return _matrix(poses[near][1])
+
+
+def _matrix(pose: np.ndarray | FlangePose) -> np.ndarray:
+    """(4, 4) ``T_base_flange`` of a pose as :meth:`FlangeHistory.add` took it."""
+    return pose if isinstance(pose, np.ndarray) else pose.matrix()

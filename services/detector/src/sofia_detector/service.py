@@ -10,7 +10,8 @@
 - ``Keys(robot).status("detector")``: :class:`ServiceStatus` every second, and queryable.
 
 Callbacks only hand data over, to one :class:`~.worker.WorkQueue` (the newest ``backlog`` clouds,
-older ones dropped and counted; up to ``QUERIES_MAX`` queries, more answered "busy, retry" at once).
+older ones dropped and counted; up to ``QUERIES_MAX`` queries, more answered "busy, retry" at once);
+a cloud in shared memory is read in place (:class:`~sofia_runtime.shm.SharedReader`, ``shm_read``).
 One worker, woken by each arrival, answers queries first; a camera cloud waits for the flange pose
 of its stamp (up to ``POSE_WAIT_S``). Dropped clouds make the status ``degraded`` (:class:`DropLog`).
 """
@@ -26,9 +27,11 @@ from typing import Any
 
 import numpy as np
 import zenoh
+from sofia_replay.preload import shm_enabled
 from sofia_runtime.client import fetch_latest
 from sofia_runtime.limits import check_payload, error_text
 from sofia_runtime.service import StatusEndpoint, StopFlag, query_payload, reply_error, reply_json, run_worker
+from sofia_runtime.shm import SharedReader
 from sofia_runtime.zenoh_config import ZenohOptions, zenoh_config
 from sofia_schemas import Board, pointcloud
 from sofia_schemas.keys import ENCODING_JSON, Keys
@@ -38,7 +41,7 @@ from sofia_schemas.ros2.encoding import decode_flange, typed_cloud
 
 from .detect import detect
 from .errors import DetectorBusy, DetectorError, TransformUnavailable, UnknownFrame
-from .frames import FlangeHistory, load_correction_file, load_transform_file, parse_transform
+from .frames import FlangeHistory, parse_transform, pinned_transform
 from .params import DetectorParams
 from .pick import PickParams, Picks
 from .selection import select, split_selection
@@ -76,15 +79,14 @@ class Detector:
         self.T_flange_cam: np.ndarray | None = None
         self.correction = CameraCorrection()  # applied to camera-frame clouds before T_flange_cam
         self.transform_name: str | None = None
-        self.transform_pinned = False
+        self.transform_pinned = config.transform_file is not None
         self.result_stamp_ns = -1  # stamp of the calibrator result in use
         if config.transform_file is not None:
-            self.T_flange_cam = load_transform_file(config.transform_file)
-            self.correction = load_correction_file(config.transform_file)
+            self.T_flange_cam, self.correction = pinned_transform(config.transform_file)
             self.transform_name = f"file {config.transform_file}"
-            self.transform_pinned = True
         self.latest: Detection | None = None
         self.picks = Picks(config.pick)
+        self.shared = SharedReader(shm_enabled())  # clouds read in place from Zenoh shared memory
         self.counters = dict.fromkeys(("processed", "errors", "queries", "query_errors"), 0)
         self.last_error = ""
         self.last_ms = 0.0
@@ -92,16 +94,13 @@ class Detector:
 
     # --- callbacks: hand over only -------------------------------------
     def on_points(self, sample: zenoh.Sample) -> None:
-        if not typed_cloud(sample, self._error):
-            return
-        self.work.put_cloud(CloudJob(sample.payload.to_bytes(), False, str(sample.key_expr)))
+        if typed_cloud(sample, self._error):
+            self.work.put_cloud(CloudJob(self.shared.received(sample)[0], False, str(sample.key_expr)))
 
     def on_camera_points(self, sample: zenoh.Sample) -> None:
-        if not typed_cloud(sample, self._error):
-            return
-        att = sample.attachment
-        applied = correction_applied(att.to_bytes() if att is not None else None)
-        self.work.put_cloud(CloudJob(sample.payload.to_bytes(), True, str(sample.key_expr), applied))
+        if typed_cloud(sample, self._error):
+            payload, attachment = self.shared.received(sample)
+            self.work.put_cloud(CloudJob(payload, True, str(sample.key_expr), correction_applied(attachment)))
 
     def on_query(self, query: zenoh.Query) -> None:
         if waiting := self.work.put_query(query):  # refused: answered here at once, never silence
@@ -114,7 +113,7 @@ class Detector:
         except ValueError as e:
             self._error(f"flange pose: {error_text(e)}")
             return
-        self.flange.add(pose.stamp_ns, pose.matrix())
+        self.flange.add(pose.stamp_ns, pose)
         self.work.poke()  # a camera cloud may be waiting for this pose
 
     def on_calibration(self, sample: zenoh.Sample) -> None:
@@ -163,7 +162,9 @@ class Detector:
             return 0.0
         return job.arrived_s + self.config.pose_wait_s - time.monotonic()
 
-    def detect_payload(self, payload: bytes, camera: bool, key: str, corrected: bool = False) -> Detection:
+    def detect_payload(
+        self, payload: bytes | memoryview, camera: bool, key: str, corrected: bool = False
+    ) -> Detection:
         """Decode a CDR PointCloud2 and detect. Raises ValueError subclasses on bad input."""
         cloud = pointcloud.decode(payload)
         camera = self.in_camera_frame(cloud.frame_id, camera, key)
@@ -233,14 +234,12 @@ class Detector:
                         f"{Keys(self.config.robot).camera_points}: send a PointCloud2 with the query"
                     )
                 det = self.latest
-        except ValueError as e:
+        except Exception as e:  # refused (ValueError) or failed: still answered, never a timeout
             self.counters["query_errors"] += 1
-            log.warning("detect query refused: %s", e)
-            reply_error(query, e)
-            return
-        except Exception as e:  # still answer: the caller must not wait for a timeout
-            self.counters["query_errors"] += 1
-            log.exception("detect query failed")
+            if isinstance(e, ValueError):
+                log.warning("detect query refused: %s", e)
+            else:
+                log.exception("detect query failed")
             reply_error(query, e)
             return
         reply_json(query, select(det, selection))
@@ -250,7 +249,8 @@ class Detector:
             w, d = self.work, self.drops
             counters = dict(self.counters, received=w.received, dropped=w.dropped, busy_queries=w.busy,
                             no_transform=d.count(UNMAPPED), bad_clouds=d.count(BAD),
-                            picks=self.picks.published, picks_withheld=self.picks.withheld)  # fmt: skip
+                            picks=self.picks.published, picks_withheld=self.picks.withheld,
+                            shm_read=self.shared.read, shm_copied=self.shared.copied)  # fmt: skip
             transform, detail = self.transform_name, self.last_error
         state, dropped = self.drops.state()
         return ServiceStatus(

@@ -33,13 +33,14 @@ BAD = "bad clouds"
 
 @dataclass(slots=True)
 class CloudJob:
-    """Received cloud bytes: ``camera`` True for camera-frame clouds; ``key`` where they came from.
+    """Received cloud bytes (a view of Zenoh shared memory that holds the sample while it lives, or a
+    copy): ``camera`` True for camera-frame clouds; ``key`` where they came from.
 
     ``arrived_s`` (monotonic) starts the wait for a flange pose; ``pose_stamp_ns`` is the stamp a
     camera cloud needs a pose for (set by the worker when it first looks at the cloud; None: no
     pose needed or the cloud is not readable, so it is processed at once)."""
 
-    payload: bytes
+    payload: bytes | memoryview
     camera: bool
     key: str
     corrected: bool = False  # the producer already applied the camera correction (Zenoh attachment)

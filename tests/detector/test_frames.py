@@ -13,6 +13,7 @@ from scipy.spatial.transform import Rotation
 from sofia_detector import BadTransformFile, TransformUnavailable
 from sofia_detector.frames import FlangeHistory, camera_to_base, load_transform_file
 from sofia_replay.synth import DEFAULT_T_FLANGE_CAM
+from sofia_schemas.messages import FlangePose
 from sofia_schemas.transforms import make_transform, matrix_to_quat_xyzw
 
 
@@ -32,6 +33,22 @@ def test_history_interpolates_between_bracketing_poses() -> None:
     assert np.allclose(T[:3, 3], [0.025, 0, 0.5])
     assert Rotation.from_matrix(T[:3, :3]).as_rotvec() == pytest.approx([0, 0, 0.05])
     assert np.array_equal(h.at(1_040_000_000), T1)
+
+
+def test_history_of_flange_poses_gives_the_matrices_of_a_history_of_matrices() -> None:
+    """Poses added as received (``FlangePose``, converted only when asked) give the same matrices,
+    exact, interpolated and nearest, as the same poses added as matrices."""
+    rng = np.random.default_rng(3)
+    stamps = np.arange(6) * 30_000_000 + 1_000_000_000
+    Ts = [_T(rng.normal(0, 0.5, 3), rng.uniform(-0.5, 0.5, 3)) for _ in stamps]
+    as_poses, as_matrices = FlangeHistory(tolerance_ns=20_000_000), FlangeHistory(tolerance_ns=20_000_000)
+    for stamp, T in zip(stamps, Ts, strict=True):
+        pose = FlangePose.from_matrix(T, int(stamp))
+        as_poses.add(int(stamp), pose)
+        as_matrices.add(int(stamp), pose.matrix())
+    for stamp in (*stamps, stamps[2] + 12_345_678, stamps[-1] + 15_000_000):
+        assert np.array_equal(as_poses.at(int(stamp)), as_matrices.at(int(stamp)))
+    assert np.allclose(as_poses.at(int(stamps[1])), Ts[1], atol=1e-12)
 
 
 def test_history_nearest_and_tolerance() -> None:

@@ -35,7 +35,7 @@ with zenoh.open(zenoh_config()) as session:
         time.sleep(0.05)
     out = ShmBuffers(True)
     for k in range(n):
-        payload, attachment = out.payload(np.random.default_rng(k).bytes(size), None)
+        payload, attachment = out.payload(np.random.default_rng(k).bytes(size))
         pub.put(payload, attachment=attachment)
         time.sleep(0.1)
     print(out.fallbacks, out.unlocated, flush=True)

@@ -249,8 +249,8 @@ class Player:
                             break
                     elif stop.is_set():
                         break
-                    stamp = time.time_ns() if o.restamp and m.schema_name in HEADER_FIRST else None
-                    payload, attachment = self._out.payload(m.data, stamp)
+                    restamped = o.restamp and m.schema_name in HEADER_FIRST
+                    payload, attachment = self._out.payload(m.data, restamped)
                     self._publisher(m.topic, m.schema_name).put(payload, attachment=attachment)
                     r.published += 1
                     r.bytes += len(m.data)

@@ -73,17 +73,18 @@ class ShmBuffers:
         self.unlocated = 0  # buffers put without their location: subscribers copy them
         self._locator = Locator()
 
-    def payload(self, data: bytes | bytearray, stamp_ns: int | None) -> tuple[Any, bytes | None]:
-        """(what to put for ``data``, restamped to ``stamp_ns`` unless None; its attachment): a
-        shared-memory buffer for a large message, with its :class:`~sofia_runtime.shm.Location` as
-        the attachment so that local subscribers read it in place, else the (restamped) bytes."""
+    def payload(self, data: bytes | bytearray, restamp_now: bool = False) -> tuple[Any, bytes | None]:
+        """(what to put for ``data``; its attachment): a shared-memory buffer for a large message,
+        with its :class:`~sofia_runtime.shm.Location` as the attachment so that local subscribers
+        read it in place, else the bytes. ``restamp_now``: the header stamp becomes the wall clock
+        once the message's body is in place, just before the put (the publish time)."""
         buf = self.alloc(len(data)) if self.enabled and len(data) >= self.MIN_BYTES else None
         if buf is None:
-            return (data if stamp_ns is None else restamp_in_place(data, stamp_ns)), None
+            return (restamp_in_place(data, time.time_ns()) if restamp_now else data), None
         buf[:] = data
         head = bytes(data[:MARK])
-        if stamp_ns is not None:
-            header = restamp(bytes(data[:HEADER_BYTES]), stamp_ns)
+        if restamp_now:
+            header = restamp(bytes(data[:HEADER_BYTES]), time.time_ns())
             buf[:HEADER_BYTES] = header
             head = (header + head[HEADER_BYTES:])[:MARK]
         return buf, self.attachment(buf, len(data), head, bytes(data[-MARK:]))

@@ -168,6 +168,7 @@ class SharedReader:
         view = memoryview(arr).toreadonly()
         if view[:MARK] != loc.head or view[-MARK:] != loc.tail:
             self._copy(f"the bytes at {loc.offset} of {loc.segment} are not the message's")
+            self._segments.pop(loc.segment, None)  # mapped again next time: a new file of that name?
             return None
         arr.held = (payload, mm)  # type: ignore[attr-defined]
         self.read += 1
@@ -178,7 +179,6 @@ class SharedReader:
             log.warning("a shared-memory message is copied, not read in place: %s", reason)
         self.reason = reason
         self.copied += 1
-        return None
 
     def _map(self, segment: str) -> tuple[mmap.mmap, int] | None:
         """The read-only mapping of ``SHM_DIR/segment`` and its address (kept for the next ones)."""

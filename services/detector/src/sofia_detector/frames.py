@@ -96,9 +96,9 @@ class FlangeHistory:
 
     def add(self, stamp_ns: int, T_base_flange: np.ndarray | FlangePose) -> None:
         """Add a pose: a (4, 4) matrix, or a :class:`FlangePose` (validated; its matrix is computed
-        only if a cloud asks for it: base-frame clouds never do). A jump back in time of more than ``JUMP_BACK_NS`` (a replay restarted, another
-        recording, a clock reset) clears the history first, as ROS tf does: poses of two time lines
-        must not be mixed."""
+        only if a cloud asks for it: base-frame clouds never do). A jump back in time of more than
+        ``JUMP_BACK_NS`` (a replay restarted, another recording, a clock reset) clears the history
+        first, as ROS tf does: poses of two time lines must not be mixed."""
         with self._arrived:
             if self._poses and stamp_ns < self._poses[-1][0] - JUMP_BACK_NS:
                 log.warning(

@@ -71,7 +71,7 @@ class ShmBuffers:
         self._pool_bytes = 0
         self.fallbacks = 0
         self.unlocated = 0  # buffers put without their location: subscribers copy them
-        self._locator = Locator()
+        self.locator = Locator()  # where a buffer lies (its Zenoh segment)
 
     def payload(self, data: bytes | bytearray, restamp_now: bool = False) -> tuple[Any, bytes | None]:
         """(what to put for ``data``; its attachment): a shared-memory buffer for a large message,
@@ -94,7 +94,7 @@ class ShmBuffers:
     ) -> bytes | None:
         """``attachment`` with the location of the message in ``buf`` (``size`` bytes from ``head`` to
         ``tail``) appended, when it can be told (see :class:`~sofia_runtime.shm.Locator`)."""
-        location = self._locator.locate(buf, size, head, tail)
+        location = self.locator.locate(buf, size, head, tail)
         if location is None:
             self.unlocated += 1
         return with_location(attachment, location)

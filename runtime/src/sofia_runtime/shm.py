@@ -115,7 +115,7 @@ class Locator:
         address = buffer_address(buf)
         if address is None or size < 2 * MARK:
             return None
-        found = self._segment(address, size) or self._segment(address, size, refresh=True)
+        found = self.segment(address, size)
         if found is None:
             return None
         start, path = found
@@ -123,9 +123,16 @@ class Locator:
             return None
         return Location(os.path.basename(path), address - start, size, head, tail)
 
-    def _segment(self, address: int, size: int, refresh: bool = False) -> tuple[int, str] | None:
-        if refresh:
+    def segment(self, address: int, size: int) -> tuple[int, str] | None:
+        """(start, path) of this process's Zenoh segment holding ``size`` bytes at ``address``; None
+        when none does (``/proc/self/maps`` is read again only when the known segments miss)."""
+        found = self._known(address, size)
+        if found is None:
             self._segments = zenoh_segments()
+            found = self._known(address, size)
+        return found
+
+    def _known(self, address: int, size: int) -> tuple[int, str] | None:
         return next(((a, p) for a, b, p in self._segments if a <= address and address + size <= b), None)
 
 
@@ -144,14 +151,16 @@ class SharedReader:
     def received(self, sample: Any) -> tuple[bytes | memoryview, bytes | None]:
         """(the message of a ``zenoh.Sample``: read in place when its publisher said where, else
         copied; the sample's attachment without the location)."""
-        raw = None if sample.attachment is None else sample.attachment.to_bytes()
-        view = self.view(sample.payload, raw)
-        return sample.payload.to_bytes() if view is None else view, split_location(raw)[0]
+        rest, loc = split_location(None if sample.attachment is None else sample.attachment.to_bytes())
+        view = self._view(sample.payload, loc)
+        return sample.payload.to_bytes() if view is None else view, rest
 
     def view(self, payload: Any, attachment: bytes | None) -> memoryview | None:
         """The message of ``payload`` (a ``ZBytes``) as a read-only byte view that holds ``payload``;
         None when it must be copied (no location, not shared memory here, or a check failed)."""
-        _, loc = split_location(attachment)
+        return self._view(payload, split_location(attachment)[1])
+
+    def _view(self, payload: Any, loc: Location | None) -> memoryview | None:
         if loc is None or not self.enabled:
             return None
         if payload.as_shm() is None:

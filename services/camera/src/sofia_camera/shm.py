@@ -26,7 +26,7 @@ import zenoh
 from sofia_replay.preload import ShmBuffers
 from sofia_runtime.shm import ADDRESS as _ADDRESS
 from sofia_runtime.shm import MARK as _MARK
-from sofia_runtime.shm import SHM_DIR, zenoh_segments
+from sofia_runtime.shm import SHM_DIR
 
 log = logging.getLogger(__name__)
 SHM_RESERVE = 16 << 20  # left free in /dev/shm: the size of Zenoh's own transport pool
@@ -54,7 +54,6 @@ class CloudBuffers:
         self.pool = ShmBuffers(enabled)
         self.direct = 0  # messages written straight into shared memory
         self.copied = 0  # written beside it, then copied in (the buffer's address could not be checked)
-        self._segments: list[tuple[int, int, str]] = []
         self._reachable = True  # False once a buffer's address failed its check: copy from then on
         self._spare = bytearray()
         self._copy_into: Any = None  # the buffer the spare's message goes into at ``ready``
@@ -136,10 +135,8 @@ class CloudBuffers:
         if found is None or size < 2 * _MARK:
             return self._unreachable("this Zenoh does not report the buffer's address")
         address = int(found.group(1), 16)
-        if not any(a <= address and address + size <= b for a, b, _ in self._segments):
-            self._segments = zenoh_segments()
-            if not any(a <= address and address + size <= b for a, b, _ in self._segments):
-                return self._unreachable(f"the buffer at {address:#x} is not in a mapped Zenoh segment")
+        if self.pool.locator.segment(address, size) is None:
+            return self._unreachable(f"the buffer at {address:#x} is not in a mapped Zenoh segment")
         view = np.frombuffer(memoryview((ctypes.c_uint8 * size).from_address(address)).cast("B"), np.uint8)
         head, tail = secrets.token_bytes(_MARK), secrets.token_bytes(_MARK)
         buf[:_MARK] = head

@@ -133,3 +133,22 @@ def test_a_camera_cloud_costs_one_cloud_array_more_than_a_base_cloud(scenes, boa
         assert np.linalg.norm(np.array(result.objects[0].center) - scenes["box"].objects[0].center) < 0.005
     cloud_bytes = f.render.points_cam.shape[0] * f.render.points_cam.shape[1] * 3 * 4
     assert peaks["camera"] - peaks["base"] < 1.3 * cloud_bytes, (peaks, cloud_bytes)
+
+
+def test_a_queued_cloud_is_decoded_once_for_its_pose_and_its_detection(scenes, board) -> None:  # type: ignore[no-untyped-def]
+    """The worker reads a queued cloud's header to find the flange pose it needs, then detects on it:
+    one decode, whose point views are views of the received bytes."""
+    f = scenes["box"].frame
+    det = Detector(ServiceConfig(board=board, robot="t", zenoh=ZenohOptions()), {})
+    payload = bytes(pointcloud.encode_points(f.points_base, stamp_ns=STAMP_NS, frame_id=board.frame_id))
+    job = CloudJob(payload, False, "k")
+    assert det.pose_wait(job) == 0.0  # a base-frame cloud needs no pose
+    decoded = job.decoded
+    assert decoded is not None and job.cloud() is decoded
+    assert np.shares_memory(decoded.xyz(), np.frombuffer(payload, np.uint8))
+    result = det.detect_payload(job, False, "k")
+    assert job.decoded is decoded and result.stamp_ns == STAMP_NS and result.objects
+    bad = CloudJob(b"\x00\x01\x00\x00 not a cloud", False, "k")
+    assert det.pose_wait(bad) == 0.0  # processed at once: processing names what is wrong
+    with pytest.raises(ValueError, match="truncated"):
+        det.detect_payload(bad, False, "k")

@@ -1,4 +1,4 @@
-"""The board model: files, the field-centre formula, validation."""
+"""The board model: files, the field-centre formula, the field of a point, validation."""
 
 from __future__ import annotations
 
@@ -109,3 +109,37 @@ def test_file_that_is_not_a_mapping(tmp_path: Path) -> None:
 def test_field_outside_board() -> None:
     with pytest.raises(ValueError, match=r"field \(0, 4\) is outside the 3x4 board"):
         Board.default().field_center_base(0, 4)
+
+
+def test_field_at_is_field_of_board_xy_for_one_point() -> None:
+    """The scalar lookup the detector uses per object gives the vectorised lookup's field, on the
+    fields' edges and a float's step either side of them too; None where that gives -1."""
+    board = Board.default()
+    fx, fy = board.field_size
+    rows, cols = np.meshgrid(np.arange(board.rows + 1), np.arange(board.cols + 1), indexing="ij")
+    edges = np.stack([(rows - board.rows / 2) * fx, (cols - board.cols / 2) * fy], axis=-1).reshape(-1, 2)
+    xy = np.concatenate([
+        np.random.default_rng(5).uniform(-0.6, 0.6, (5000, 2)), edges,
+        np.nextafter(edges, -np.inf), np.nextafter(edges, np.inf),
+    ])  # fmt: skip
+    vectorised = board.field_of_board_xy(xy)
+    scalar = [board.field_at(float(x), float(y)) for x, y in xy]
+    assert [tuple(rc) if rc[0] >= 0 else None for rc in vectorised.tolist()] == scalar
+    assert any(rc is None for rc in scalar) and any(rc is not None for rc in scalar)
+
+
+def test_board_pose_is_shared_read_only_and_follows_the_board() -> None:
+    """The pose is computed once per board geometry and handed out read-only: no caller can change
+    another's; a board moved or turned gets its own."""
+    board = Board.default()
+    T = board.T_base_board
+    assert T is Board.default().T_base_board and not T.flags.writeable
+    assert not board.R_base_board.flags.writeable
+    with pytest.raises(ValueError, match="read-only"):
+        T[0, 3] = 1.0
+    turned = board.model_copy(update={"yaw": 0.3, "center": (0.6, -0.1), "surface_z": 0.02})
+    c, s = np.cos(0.3), np.sin(0.3)
+    expected = np.array([[c, -s, 0, 0.6], [s, c, 0, -0.1], [0, 0, 1, 0.02], [0, 0, 0, 1]])
+    np.testing.assert_array_equal(turned.T_base_board, expected)
+    np.testing.assert_array_equal(turned.R_base_board, expected[:3, :3])
+    assert board.T_base_board[0, 3] == board.center[0]

@@ -183,3 +183,37 @@ def test_alignment_padding_is_accepted(ros_cloud: Callable[..., bytes]) -> None:
         cloud = pointcloud.decode(_small() + b"\x00" * pad)
         assert cloud.n_points == 6
     assert pointcloud.decode(ros_cloud(XYZRGB32, 16, np.zeros(96, np.uint8), height=2, width=3)).n_points == 6
+
+
+def test_clouds_of_other_layouts_are_parsed_afresh() -> None:
+    """decode() reuses the last cloud's parse only when the bytes between its stamp and its data are
+    the same: another frame id of the same length, other fields, another shape are read as sent."""
+    a = _small()
+    b = bytes(pointcloud.encode_points(np.ones((2, 3, 3), np.float32), stamp_ns=5, frame_id="panda_link1"))
+    c = bytes(
+        pointcloud.encode_points(np.full((3, 2, 3), 2.0, np.float32), stamp_ns=7, frame_id="panda_link1")
+    )
+    expected = {
+        a: (1_000_000_001, "panda_link0", (2, 3), ["x", "y", "z", "rgb"], 0.0),
+        b: (5, "panda_link1", (2, 3), ["x", "y", "z"], 1.0),
+        c: (7, "panda_link1", (3, 2), ["x", "y", "z"], 2.0),
+    }
+    for payload in (a, b, c, c, a, b, a):
+        cloud = pointcloud.decode(payload)
+        stamp, frame, shape, names, first = expected[payload]
+        assert (cloud.stamp_ns, cloud.frame_id, cloud.shape, cloud.field_names()) == (
+            stamp,
+            frame,
+            shape,
+            names,
+        )
+        assert cloud.xyz()[0, 0, 0] == first
+    with pytest.raises(TruncatedMessage, match="is_dense"):  # the same layout, the last byte cut
+        pointcloud.decode(_without_is_dense(a))
+
+
+def _without_is_dense(payload: bytes) -> bytes:
+    """``payload`` cut just before its is_dense byte (after the point data)."""
+    cloud = pointcloud.decode(payload)
+    end = bytes(payload).index(bytes(cloud.data)) + len(cloud.data)
+    return payload[:end]

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import json
+import math
+from functools import lru_cache
 from importlib import resources
 from pathlib import Path
 
@@ -13,6 +15,16 @@ from pydantic import BaseModel, ConfigDict, Field, field_validator, model_valida
 from .files import load_json_or_yaml
 
 DEFAULT_BOARD_FILE = "default_board.yaml"
+
+
+@lru_cache(maxsize=64)
+def _board_pose(x: float, y: float, z: float, yaw: float) -> np.ndarray:
+    """(4, 4) read-only pose of a board frame at ``(x, y, z)`` turned ``yaw`` about the base z axis.
+    Cached: the detector maps every cloud with it."""
+    c, s = np.cos(yaw), np.sin(yaw)
+    T = np.array([[c, -s, 0.0, x], [s, c, 0.0, y], [0.0, 0.0, 1.0, z], [0.0, 0.0, 0.0, 1.0]])
+    T.flags.writeable = False
+    return T
 
 
 class Board(BaseModel):
@@ -77,17 +89,15 @@ class Board(BaseModel):
     # --- geometry ---------------------------------------------------------
     @property
     def R_base_board(self) -> np.ndarray:
-        """(3, 3) rotation of the board frame (x along rows, y along cols) in the base frame."""
-        c, s = np.cos(self.yaw), np.sin(self.yaw)
-        return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+        """(3, 3) rotation of the board frame (x along rows, y along cols) in the base frame
+        (read-only)."""
+        return self.T_base_board[:3, :3]
 
     @property
     def T_base_board(self) -> np.ndarray:
-        """(4, 4) pose of the board frame: origin at the board centre on the top surface."""
-        T = np.eye(4)
-        T[:3, :3] = self.R_base_board
-        T[:3, 3] = (self.center[0], self.center[1], self.surface_z)
-        return T
+        """(4, 4) pose of the board frame: origin at the board centre on the top surface
+        (read-only)."""
+        return _board_pose(self.center[0], self.center[1], self.surface_z, self.yaw)
 
     @property
     def extent(self) -> tuple[float, float]:
@@ -123,6 +133,13 @@ class Board(BaseModel):
         off = (rc[:, 0] < 0) | (rc[:, 0] >= self.rows) | (rc[:, 1] < 0) | (rc[:, 1] >= self.cols)
         rc[off] = -1
         return rc
+
+    def field_at(self, x_board: float, y_board: float) -> tuple[int, int] | None:
+        """Field ``(row, col)`` of one board-frame point (metres), None off the board: the scalar
+        :meth:`field_of_board_xy` (the same arithmetic, without numpy's per-call overhead)."""
+        fx, fy = self.field_size
+        row, col = math.floor(x_board / fx + self.rows / 2), math.floor(y_board / fy + self.cols / 2)
+        return (row, col) if 0 <= row < self.rows and 0 <= col < self.cols else None
 
     def is_allowed(self, row: int, col: int) -> bool:
         """True when ``(row, col)`` is a red field."""

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import cached_property
+from functools import cached_property, lru_cache
 
 import numpy as np
 from sofia_schemas import Board
@@ -51,11 +51,21 @@ def _drops(low: np.ndarray, r: np.ndarray, c: np.ndarray, reach: int, steps_xy: 
     h, w = low.shape
     padded = np.zeros((h + 2 * reach, w + 2 * reach), dtype=bool)
     padded[reach : reach + h, reach : reach + w] = low
+    drc = _reach_steps(reach)  # (4 reach, 2)
+    hit = padded[r[:, None] + (drc[:, 0] + reach), c[:, None] + (drc[:, 1] + reach)]  # (k, 4 reach)
+    return hit @ (drc @ steps_xy.T)  # type: ignore[no-any-return]
+
+
+@lru_cache(maxsize=8)
+def _reach_steps(reach: int) -> np.ndarray:
+    """(4 reach, 2) read-only (row, column) steps 1..reach down, up, right and left."""
     d = np.arange(1, reach + 1)
-    dr = np.concatenate([d, -d, 0 * d, 0 * d])
-    dc = np.concatenate([0 * d, 0 * d, d, -d])
-    hit = padded[r[:, None] + (dr + reach), c[:, None] + (dc + reach)].astype(np.float64)  # (k, 4 reach)
-    return hit @ np.stack([dr, dc], axis=1) @ steps_xy.T  # type: ignore[no-any-return]
+    z = np.zeros(reach, dtype=np.int64)
+    out = np.concatenate(
+        [np.stack([d, z], 1), np.stack([-d, z], 1), np.stack([z, d], 1), np.stack([z, -d], 1)]
+    )
+    out.flags.writeable = False
+    return out
 
 
 def _grid_steps(xy: np.ndarray, r: np.ndarray, c: np.ndarray) -> np.ndarray:
@@ -63,11 +73,17 @@ def _grid_steps(xy: np.ndarray, r: np.ndarray, c: np.ndarray) -> np.ndarray:
     the affine fit of the plane-frame points ``xy`` (k, 2) to their grid cells ``(r, c)`` (k,)
     (the identity when they lie on a line)."""
     A = np.column_stack((r, c, np.ones(r.size), xy))
-    G = A[:, :3].T @ A  # (3, 5) normal equations
-    try:
-        return np.linalg.solve(G[:, :3], G[:, 3:])[:2].T  # type: ignore[no-any-return]
-    except np.linalg.LinAlgError:
+    (g00, g01, g02, g03, g04), (_, g11, g12, g13, g14), (_, _, g22, g23, g24) = (A[:, :3].T @ A).tolist()
+    # the 3x3 normal equations (symmetric) by cofactors: numpy's solver costs more than they do
+    c00, c01, c02 = g11 * g22 - g12 * g12, g02 * g12 - g01 * g22, g01 * g12 - g02 * g11
+    c11, c12 = g00 * g22 - g02 * g02, g01 * g02 - g00 * g12
+    det = g00 * c00 + g01 * c01 + g02 * c02
+    if not abs(det) > 1e-12 * max(abs(g00 * g11 * g22), 1e-300):
         return np.eye(2)
+    rhs = ((g03, g13, g23), (g04, g14, g24))  # x and y of the points
+    return np.array(
+        [[(c00 * u + c01 * v + c02 * t) / det, (c01 * u + c11 * v + c12 * t) / det] for u, v, t in rhs]
+    )
 
 
 def _outline_points(
@@ -142,9 +158,8 @@ def fit_board(coarse_base: np.ndarray, board: Board, params: DetectorParams) -> 
         )
         low = sub[2] < -params.outline_band
     outline_xy, drop_xy = _outline_points(sub, band, low, half)
-    outline = None
-    T_plane_board = np.eye(4)
-    if outline_xy.shape[0] >= 8:
-        outline = fit_outline(outline_xy, board.extent, params.max_board_yaw, params.max_rim, drop_xy)
-        T_plane_board = planar_transform(*outline.center, outline.yaw)
+    if outline_xy.shape[0] < 8:  # too little of the board top: it lies where it is configured
+        return BoardFit(T_base_plane.copy(), T_base_plane, plane, None, m)
+    outline = fit_outline(outline_xy, board.extent, params.max_board_yaw, params.max_rim, drop_xy)
+    T_plane_board = planar_transform(*outline.center, outline.yaw)
     return BoardFit(T_base_plane @ T_plane_board, T_base_plane, plane, outline, m)

@@ -61,8 +61,7 @@ def _to_message(
     centroid = R @ est.centroid + t
     axis_base = R[:, :2] @ np.array([np.cos(est.yaw), np.sin(est.yaw)])
     yaw = half_turn(float(np.arctan2(axis_base[1], axis_base[0])))
-    rc = board.field_of_board_xy(est.center_xy[None, :])[0]
-    fld = (int(rc[0]), int(rc[1])) if rc[0] >= 0 else None
+    fld = board.field_at(*est.center_xy)
     # confidence: enough points for the footprint, a board plane as flat as a depth camera sees it,
     # the whole silhouette in view and depth over the object
     coverage = min(est.n_points / 150.0, 1.0)
@@ -165,11 +164,7 @@ def _from_silhouettes(
             continue
         taken[sil.rows, sil.cols] = True  # the other slivers of this object
         rect = sil.rect
-        if (
-            rect is None
-            or board.field_of_board_xy(rect.center[None, :])[0, 0] < 0
-            or any(p.covers(rect.center) for p in placed)
-        ):
+        if rect is None or board.field_at(*rect.center) is None or any(p.covers(rect.center) for p in placed):
             continue  # not placed, off the field grid, or on an object already found
         size, yaw = length_first(rect.size, rect.yaw)
         est = replace(est, center_xy=rect.center, size=size, whole_xy=rect.center, whole_size=size, yaw=yaw)
@@ -252,7 +247,7 @@ def detect(
                 continue  # mixed pixels along a silhouette
             # the top out of view (a tall object cut by the image border): what is seen of it
             est = replace(est, center_xy=est.whole_xy, size=est.whole_size)
-        if board.field_of_board_xy(est.center_xy[None, :])[0, 0] < 0:
+        if board.field_at(*est.center_xy) is None:
             continue  # not on the field grid
         if view is None:
             view = in_view(obj, est.height, params.colour_tol, depth)

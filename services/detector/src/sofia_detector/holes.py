@@ -182,9 +182,10 @@ def unseen_top(obj: ObjectPoints, face: np.ndarray, tol: float) -> np.ndarray:
     face_h = obj.b[2, face]
     lo, mid = float(face_h.min()), float(median(face_h))
     f32 = np.float32
-    hr, hc = where(bordered_patches(grid, same, h, f32(RAISED), f32(lo), f32(2 * mid - lo), BORDER_PX))
-    if hr.size < MIN_SHARE * fr.size:
+    bordered = bordered_patches(grid, same, h, f32(RAISED), f32(lo), f32(2 * mid - lo), BORDER_PX)
+    if np.count_nonzero(bordered) < MIN_SHARE * fr.size:
         return none
+    hr, hc = where(bordered)
     k = max(1, fr.size // SAMPLE)
     sr, sc = fr[::k], fc[::k]
     H = pixel_to_plane(sr, sc, obj.window[:2, sr, sc].T.astype(np.float64))

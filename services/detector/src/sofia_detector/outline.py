@@ -9,7 +9,9 @@ one edge seen where the other side is cut short (missing depth, the image border
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -36,20 +38,28 @@ class Rect:
     lo: np.ndarray
     hi: np.ndarray
 
-    @property
+    @cached_property
     def R(self) -> np.ndarray:
-        """(2, 2) rotation whose columns are the rectangle axes."""
-        c, s = np.cos(self.yaw), np.sin(self.yaw)
-        return np.array([[c, -s], [s, c]])
+        """(2, 2) rotation whose columns are the rectangle axes (computed once per rectangle: the
+        detector reads it, the centre and the size many times)."""
+        c, s = math.cos(self.yaw), math.sin(self.yaw)
+        return _read_only(np.array([[c, -s], [s, c]]))
 
-    @property
+    @cached_property
     def center(self) -> np.ndarray:
         """(2,) centre in the frame of the points."""
-        return self.R @ ((self.lo + self.hi) / 2)
+        return _read_only(self.R @ ((self.lo + self.hi) / 2))
 
-    @property
+    @cached_property
     def size(self) -> np.ndarray:
-        return self.hi - self.lo
+        """(2,) extent along the rectangle's two axes."""
+        return _read_only(self.hi - self.lo)
+
+
+def _read_only(a: np.ndarray) -> np.ndarray:
+    """``a``, marked read-only: a rectangle's cached values are shared by whoever reads them."""
+    a.flags.writeable = False
+    return a
 
 
 def largest_component(mask: np.ndarray) -> np.ndarray:

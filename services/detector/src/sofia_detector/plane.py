@@ -11,6 +11,7 @@ on them than on (..., 3) points, whose innermost axis of length 3 defeats vector
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -160,27 +161,20 @@ def fit_plane(
 
 
 def T_cfg_plane(fit: PlaneFit) -> np.ndarray:
-    """(4, 4) pose of the measured plane frame in the configured board frame."""
-    z_axis = fit.normal_cfg
-    x_axis = np.array([1.0, 0.0, 0.0]) - z_axis[0] * z_axis
-    x_axis /= np.linalg.norm(x_axis)
-    y_axis = np.array(
-        [
-            z_axis[1] * x_axis[2] - z_axis[2] * x_axis[1],
-            z_axis[2] * x_axis[0] - z_axis[0] * x_axis[2],
-            z_axis[0] * x_axis[1] - z_axis[1] * x_axis[0],
-        ]
-    )  # z x x, without np.cross's overhead
-    T = np.eye(4)
-    T[:3, :3] = np.stack([x_axis, y_axis, z_axis], axis=1)
-    T[:3, 3] = (0.0, 0.0, fit.coef[0])
-    return T
+    """(4, 4) pose of the measured plane frame in the configured board frame: z along the
+    normal, x along the configured x projected onto the plane (scalar arithmetic: numpy's
+    per-call overhead would dominate on 3-vectors)."""
+    a, b, c = fit.coef
+    n = math.sqrt(b * b + c * c + 1.0)
+    zx, zy, zz = -b / n, -c / n, 1.0 / n  # normal_cfg
+    xx, xy, xz = 1.0 - zx * zx, -zx * zy, -zx * zz  # (1, 0, 0) without its normal component
+    k = math.sqrt(xx * xx + xy * xy + xz * xz)
+    xx, xy, xz = xx / k, xy / k, xz / k
+    yx, yy, yz = zy * xz - zz * xy, zz * xx - zx * xz, zx * xy - zy * xx  # z x x
+    return np.array([[xx, yx, zx, 0.0], [xy, yy, zy, 0.0], [xz, yz, zz, a], [0.0, 0.0, 0.0, 1.0]])
 
 
 def planar_transform(x: float, y: float, yaw: float) -> np.ndarray:
     """(4, 4) rotation ``yaw`` about z and translation ``(x, y, 0)``."""
-    c, s = np.cos(yaw), np.sin(yaw)
-    T = np.eye(4)
-    T[:2, :2] = ((c, -s), (s, c))
-    T[:2, 3] = (x, y)
-    return T
+    c, s = math.cos(yaw), math.sin(yaw)
+    return np.array([[c, -s, 0.0, x], [s, c, 0.0, y], [0.0, 0.0, 1.0, 0.0], [0.0, 0.0, 0.0, 1.0]])

@@ -163,10 +163,10 @@ class Detector:
         return job.arrived_s + self.config.pose_wait_s - time.monotonic()
 
     def detect_payload(
-        self, payload: bytes | memoryview, camera: bool, key: str, corrected: bool = False
+        self, payload: bytes | memoryview | CloudJob, camera: bool, key: str, corrected: bool = False
     ) -> Detection:
-        """Decode a CDR PointCloud2 and detect. Raises ValueError subclasses on bad input."""
-        cloud = pointcloud.decode(payload)
+        """Decode a CDR PointCloud2 (a job's is decoded once) and detect; ValueError subclasses if bad."""
+        cloud = payload.cloud() if isinstance(payload, CloudJob) else pointcloud.decode(payload)
         camera = self.in_camera_frame(cloud.frame_id, camera, key)
         points = cloud.xyz()
         transform = None
@@ -201,7 +201,7 @@ class Detector:
 
     def process(self, job: CloudJob) -> None:
         try:
-            det = self.detect_payload(job.payload, job.camera, job.key, job.corrected)
+            det = self.detect_payload(job, job.camera, job.key, job.corrected)
         except TransformUnavailable as e:
             self.drops.add(UNMAPPED, error_text(e))
             self._error(str(e))

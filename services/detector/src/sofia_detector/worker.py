@@ -47,6 +47,14 @@ class CloudJob:
     arrived_s: float = field(default_factory=time.monotonic)
     pose_stamp_ns: int | None = None
     inspected: bool = False
+    decoded: pointcloud.PointCloud2 | None = None
+
+    def cloud(self) -> pointcloud.PointCloud2:
+        """The decoded cloud, decoded once (its points are views of ``payload``). Raises ValueError
+        subclasses naming what is wrong with the payload."""
+        if self.decoded is None:
+            self.decoded = pointcloud.decode(self.payload)
+        return self.decoded
 
     def pose_stamp(self, in_camera_frame: Callable[[str], bool]) -> int | None:
         """The stamp this cloud needs a flange pose for: None for clouds in the board's frame and
@@ -54,7 +62,7 @@ class CloudJob:
         if not self.inspected:
             self.inspected = True
             try:
-                cloud = pointcloud.decode(self.payload)
+                cloud = self.cloud()
                 self.pose_stamp_ns = cloud.stamp_ns if in_camera_frame(cloud.frame_id) else None
             except ValueError:
                 self.pose_stamp_ns = None

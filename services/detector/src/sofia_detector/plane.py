@@ -28,11 +28,11 @@ class PlaneFit:
     n_inliers: int
 
     @property
-    def normal_cfg(self) -> np.ndarray:
-        """(3,) unit normal, configured board frame, pointing up."""
+    def normal_cfg(self) -> tuple[float, float, float]:
+        """Unit normal (x, y, z), configured board frame, pointing up."""
         _, b, c = self.coef
-        n = np.array([-b, -c, 1.0])
-        return n / np.linalg.norm(n)
+        n = math.sqrt(b * b + c * c + 1.0)
+        return -b / n, -c / n, 1.0 / n
 
 
 def coords(points: np.ndarray) -> np.ndarray:
@@ -164,14 +164,12 @@ def T_cfg_plane(fit: PlaneFit) -> np.ndarray:
     """(4, 4) pose of the measured plane frame in the configured board frame: z along the
     normal, x along the configured x projected onto the plane (scalar arithmetic: numpy's
     per-call overhead would dominate on 3-vectors)."""
-    a, b, c = fit.coef
-    n = math.sqrt(b * b + c * c + 1.0)
-    zx, zy, zz = -b / n, -c / n, 1.0 / n  # normal_cfg
+    zx, zy, zz = fit.normal_cfg
     xx, xy, xz = 1.0 - zx * zx, -zx * zy, -zx * zz  # (1, 0, 0) without its normal component
     k = math.sqrt(xx * xx + xy * xy + xz * xz)
     xx, xy, xz = xx / k, xy / k, xz / k
     yx, yy, yz = zy * xz - zz * xy, zz * xx - zx * xz, zx * xy - zy * xx  # z x x
-    return np.array([[xx, yx, zx, 0.0], [xy, yy, zy, 0.0], [xz, yz, zz, a], [0.0, 0.0, 0.0, 1.0]])
+    return np.array([[xx, yx, zx, 0.0], [xy, yy, zy, 0.0], [xz, yz, zz, fit.coef[0]], [0.0, 0.0, 0.0, 1.0]])
 
 
 def planar_transform(x: float, y: float, yaw: float) -> np.ndarray:

@@ -16,9 +16,9 @@ class Reader:
 
     __slots__ = ("buf", "n", "pos")
 
-    def __init__(self, buf: memoryview) -> None:
+    def __init__(self, buf: memoryview, pos: int = 4) -> None:
         self.buf = buf
-        self.pos = 4  # after the encapsulation header
+        self.pos = pos  # 4: just after the encapsulation header
         self.n = len(buf)
 
     def _align(self, k: int) -> None:
@@ -29,16 +29,16 @@ class Reader:
             raise TruncatedMessage(what, self.pos + k, self.n)
 
     def u32(self, what: str) -> int:
-        self._align(4)
-        self.need(4, what)
-        (v,) = struct.unpack_from("<I", self.buf, self.pos)
-        self.pos += 4
-        return int(v)
+        return self._int32("<I", what)
 
     def i32(self, what: str) -> int:
+        return self._int32("<i", what)
+
+    def _int32(self, fmt: str, what: str) -> int:
+        """A 4-byte integer of struct format ``fmt`` (``<I`` or ``<i``), aligned to 4."""
         self._align(4)
         self.need(4, what)
-        (v,) = struct.unpack_from("<i", self.buf, self.pos)
+        (v,) = struct.unpack_from(fmt, self.buf, self.pos)
         self.pos += 4
         return int(v)
 

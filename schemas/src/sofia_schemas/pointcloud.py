@@ -68,8 +68,7 @@ def decode(payload: bytes | bytearray | memoryview) -> PointCloud2:
     if layout is None or buf[12 : 12 + len(layout.head)] != layout.head:
         layout = _last_layout = parse_layout(buf)
     sec, nsec = struct.unpack_from("<iI", buf, 4)
-    r = Reader(buf)
-    r.pos = 12 + len(layout.head)
+    r = Reader(buf, 12 + len(layout.head))  # at the point data
     r.need(layout.n_data, f"data ({layout.n_data} bytes)")
     data = buf[r.pos : r.pos + layout.n_data]
     r.pos += layout.n_data

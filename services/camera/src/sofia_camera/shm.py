@@ -24,9 +24,8 @@ from typing import Any
 import numpy as np
 import zenoh
 from sofia_replay.preload import ShmBuffers
-from sofia_runtime.shm import ADDRESS as _ADDRESS
 from sofia_runtime.shm import MARK as _MARK
-from sofia_runtime.shm import SHM_DIR
+from sofia_runtime.shm import SHM_DIR, buffer_address
 
 log = logging.getLogger(__name__)
 SHM_RESERVE = 16 << 20  # left free in /dev/shm: the size of Zenoh's own transport pool
@@ -131,10 +130,9 @@ class CloudBuffers:
 
     def _mapped(self, buf: Any, size: int) -> np.ndarray | None:
         """The memory of ``buf`` as a writable uint8 array, or None when its address cannot be checked."""
-        found = _ADDRESS.search(repr(buf))
-        if found is None or size < 2 * _MARK:
+        address = buffer_address(buf)
+        if address is None or size < 2 * _MARK:
             return self._unreachable("this Zenoh does not report the buffer's address")
-        address = int(found.group(1), 16)
         if self.pool.locator.segment(address, size) is None:
             return self._unreachable(f"the buffer at {address:#x} is not in a mapped Zenoh segment")
         view = np.frombuffer(memoryview((ctypes.c_uint8 * size).from_address(address)).cast("B"), np.uint8)

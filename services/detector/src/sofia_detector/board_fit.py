@@ -9,6 +9,7 @@ import numpy as np
 from sofia_schemas import Board
 from sofia_schemas.transforms import invert
 
+from .board_grid import board_outline, plane_candidates, reach_hits
 from .outline import Outline, fit_outline, grid_boundary, largest_component
 from .params import DetectorParams
 from .plane import PlaneFit, T_cfg_plane, change_frame, fit_plane, planar_transform, points_in_frame
@@ -48,12 +49,12 @@ def _drops(low: np.ndarray, r: np.ndarray, c: np.ndarray, reach: int, steps_xy: 
     grid towards the cells of ``low`` (h, w) bool within ``reach`` cells of it along the grid's
     row and column (0 where none): where the board top drops to something below it. steps_xy:
     (2, 2) plane-frame step of one grid row (column 0) and one grid column (column 1), metres."""
-    h, w = low.shape
-    padded = np.zeros((h + 2 * reach, w + 2 * reach), dtype=bool)
-    padded[reach : reach + h, reach : reach + w] = low
-    drc = _reach_steps(reach)  # (4 reach, 2)
-    hit = padded[r[:, None] + (drc[:, 0] + reach), c[:, None] + (drc[:, 1] + reach)]  # (k, 4 reach)
-    return hit @ (drc @ steps_xy.T)  # type: ignore[no-any-return]
+    return _towards(reach_hits(np.ascontiguousarray(low), r, c, reach), reach, steps_xy)
+
+
+def _towards(hits: np.ndarray, reach: int, steps_xy: np.ndarray) -> np.ndarray:
+    """(k, 2) :func:`_drops` from its :func:`.board_grid.reach_hits` (k, 4 reach) bool."""
+    return hits @ (_reach_steps(reach) @ steps_xy.T)  # type: ignore[no-any-return]
 
 
 @lru_cache(maxsize=8)
@@ -68,11 +69,10 @@ def _reach_steps(reach: int) -> np.ndarray:
     return out
 
 
-def _grid_steps(xy: np.ndarray, r: np.ndarray, c: np.ndarray) -> np.ndarray:
+def _grid_steps(A: np.ndarray) -> np.ndarray:
     """(2, 2) plane-frame step of one grid row (column 0) and one grid column (column 1), metres:
-    the affine fit of the plane-frame points ``xy`` (k, 2) to their grid cells ``(r, c)`` (k,)
-    (the identity when they lie on a line)."""
-    A = np.column_stack((r, c, np.ones(r.size), xy))
+    the affine fit of plane-frame points to their grid cells, from the rows ``(row, col, 1, x, y)``
+    of ``A`` (k, 5) float64 (the identity when the points lie on a line)."""
     (g00, g01, g02, g03, g04), (_, g11, g12, g13, g14), (_, _, g22, g23, g24) = (A[:, :3].T @ A).tolist()
     # the 3x3 normal equations (symmetric) by cofactors: numpy's solver costs more than they do
     c00, c01, c02 = g11 * g22 - g12 * g12, g02 * g12 - g01 * g22, g01 * g12 - g02 * g11
@@ -86,28 +86,36 @@ def _grid_steps(xy: np.ndarray, r: np.ndarray, c: np.ndarray) -> np.ndarray:
     )
 
 
-def _outline_points(
-    m: np.ndarray, band: np.ndarray, low: np.ndarray, half: np.ndarray
-) -> tuple[np.ndarray, np.ndarray]:
-    """Points on the outline of the largest connected patch of ``band``, and where the board top
+def _grid_outline_points(m: np.ndarray, band: float, half: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Points on the outline of the board top of an organized cloud, and where the top drops beside
+    them (:func:`_scattered_outline_points`' results).
+
+    m: (3, h, w) float32 coarse grid, plane frame, metres. The board top is the largest
+    8-connected patch of cells within ``band`` of the plane and ``half`` (2,) of its centre,
+    taken on every second cell (plenty); cells lower than ``-band`` lie below it, within
+    :data:`EDGE_REACH_PX` cells. Returns (k, 2) float32 and (k, 2) float64 plane-frame vectors.
+    """
+    xy, A, hits = board_outline(m, np.float32(band), half[0], half[1], EDGE_REACH_PX)
+    if xy.shape[0] == 0:
+        return np.empty((0, 2)), np.empty((0, 2))
+    return xy, _towards(hits, EDGE_REACH_PX, _grid_steps(A))
+
+
+def _scattered_outline_points(m: np.ndarray, band: float, half: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Points on the outline of the board top of an unorganized cloud, and where the board top
     drops beside them.
 
-    Organized ``m`` (3, h, w): connectivity on the pixel grid (the caller passes every second
-    cell of the coarse grid); ``band`` and ``low`` (h, w) bool. Unorganized (3, n): on an occupancy
-    grid of :data:`OUTLINE_CELL` cells over ``[-half, half]``; ``band`` and ``low`` (n,) bool.
-    ``low``: points below the board top. Returns (k, 2) plane-frame points and (k, 2) the
-    direction from each to what lies below the board within :data:`EDGE_REACH_PX` grid cells
-    (:data:`EDGE_REACH_CELLS` occupancy cells, which also span the table the board's side hides),
-    0 where nothing does: there the board top is cut short by missing depth, the image border or
-    something standing in front, not by its edge.
+    m: (3, n) float32 points, plane frame, metres. The board top: the largest connected patch of
+    the points within ``band`` of the plane and ``half`` (2,) of its centre on an occupancy grid
+    of :data:`OUTLINE_CELL` cells over ``[-half, half]``; the points lower than ``-band`` lie below
+    it. Returns (k, 2) plane-frame cell centres and (k, 2) the direction from each to what lies
+    below the board within :data:`EDGE_REACH_CELLS` cells (which also span the table the board's
+    side hides), 0 where nothing does: there the board top is cut short by missing depth, the
+    image border or something standing in front, not by its edge.
     """
-    if m.ndim == 3:
-        comp = largest_component(band)
-        if not comp.any():
-            return np.empty((0, 2)), np.empty((0, 2))
-        r, c = grid_boundary(comp)
-        xy = np.stack([m[0, r, c], m[1, r, c]], axis=1)
-        return xy, _drops(low, r, c, EDGE_REACH_PX, _grid_steps(xy, r, c))
+    with np.errstate(invalid="ignore"):
+        top = (np.abs(m[2]) < band) & (np.abs(m[0]) < half[0]) & (np.abs(m[1]) < half[1])
+        low = (m[2] < -band) & (np.abs(m[0]) < half[0]) & (np.abs(m[1]) < half[1])
     shape = tuple(np.ceil(2 * half / OUTLINE_CELL).astype(int) + 1)
 
     def occupancy(sel: np.ndarray) -> np.ndarray:
@@ -116,12 +124,10 @@ def _outline_points(
         occ[idx[:, 0], idx[:, 1]] = True
         return occ
 
-    comp = largest_component(occupancy(band))
+    comp = largest_component(occupancy(top))
     if not comp.any():
         return np.empty((0, 2)), np.empty((0, 2))
     r, c = grid_boundary(comp)
-    with np.errstate(invalid="ignore"):
-        low = low & (np.abs(m[0]) < half[0]) & (np.abs(m[1]) < half[1])
     xy = (np.stack([r, c], axis=1) + 0.5) * OUTLINE_CELL - half
     return xy, _drops(occupancy(low), r, c, EDGE_REACH_CELLS, OUTLINE_CELL * np.eye(2))
 
@@ -135,15 +141,8 @@ def fit_board(coarse_base: np.ndarray, board: Board, params: DetectorParams) -> 
     """
     q = points_in_frame(coarse_base, board.T_base_board)
     ex, ey = board.extent
-    with np.errstate(invalid="ignore"):
-        cand = (
-            (np.abs(q[0]) < ex / 2 - params.board_shrink)
-            & (np.abs(q[1]) < ey / 2 - params.board_shrink)
-            & (np.abs(q[2]) < params.board_band)
-        )
-    idx = np.flatnonzero(cand)
-    idx = idx[:: max(1, idx.size // PLANE_FIT_POINTS)]
-    qf = q.reshape(3, -1)[:, idx]
+    lim_x, lim_y = (np.float32(e / 2 - params.board_shrink) for e in (ex, ey))
+    qf = plane_candidates(q.reshape(3, -1), lim_x, lim_y, np.float32(params.board_band), PLANE_FIT_POINTS)
     plane = fit_plane(qf[0], qf[1], qf[2], params.plane_thresholds, MIN_BOARD_POINTS)
     if plane is None:
         return None
@@ -151,13 +150,8 @@ def fit_board(coarse_base: np.ndarray, board: Board, params: DetectorParams) -> 
     T_base_plane = board.T_base_board @ T_cp
     m = change_frame(q, T_cp)
     half = np.array([ex / 2, ey / 2]) + params.outline_margin
-    sub = m[:, ::2, ::2] if m.ndim == 3 else m  # organized: every second cell is plenty
-    with np.errstate(invalid="ignore"):
-        band = (
-            (np.abs(sub[2]) < params.outline_band) & (np.abs(sub[0]) < half[0]) & (np.abs(sub[1]) < half[1])
-        )
-        low = sub[2] < -params.outline_band
-    outline_xy, drop_xy = _outline_points(sub, band, low, half)
+    outline_points = _grid_outline_points if m.ndim == 3 else _scattered_outline_points
+    outline_xy, drop_xy = outline_points(m, params.outline_band, half)
     if outline_xy.shape[0] < 8:  # too little of the board top: it lies where it is configured
         return BoardFit(T_base_plane.copy(), T_base_plane, plane, None, m)
     outline = fit_outline(outline_xy, board.extent, params.max_board_yaw, params.max_rim, drop_xy)

@@ -51,14 +51,29 @@ def consistent_at(c: np.ndarray, mask: np.ndarray, delta: float, min_neighbours:
     return _consistent_at(c, np.ascontiguousarray(mask), np.float32(delta * delta), min_neighbours)  # type: ignore[no-any-return]
 
 
+@jit
+def _row_steps(m: np.ndarray, every: int) -> np.ndarray:
+    """(k,) float32 finite distances between horizontally adjacent cells of every ``every``-th row
+    of ``m`` (3, h, w) float32, in row-major order; the sum of squares in float32, x y z in turn."""
+    _, h, w = m.shape
+    out = np.empty(((h + every - 1) // every) * max(w - 1, 0), dtype=np.float32)
+    k = 0
+    for r in range(0, h, every):
+        for c in range(w - 1):
+            dx, dy, dz = m[0, r, c + 1] - m[0, r, c], m[1, r, c + 1] - m[1, r, c], m[2, r, c + 1] - m[2, r, c]
+            d = np.sqrt(dx * dx + dy * dy + dz * dz)
+            if np.isfinite(d):
+                out[k] = d
+                k += 1
+    return out[:k]
+
+
 def pixel_spacing(m: np.ndarray, stride: int) -> float:
     """Median distance between horizontally adjacent pixels of the full-resolution image, metres.
 
     m: (3, h, w) float32 coordinates of the coarse grid (every ``stride``-th pixel), metres.
     """
-    step = m[:, ::8, 1:] - m[:, ::8, :-1]
-    d = np.sqrt(np.einsum("kij,kij->ij", step, step)).ravel()
-    d = d[np.isfinite(d)]
+    d = _row_steps(np.ascontiguousarray(m, dtype=np.float32), 8)
     return float(median(d)) / stride if d.size else 0.0012
 
 

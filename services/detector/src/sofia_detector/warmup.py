@@ -22,10 +22,10 @@ from sofia_schemas.messages import Detection
 from sofia_schemas.ros2.encoding import decode_flange
 from sofia_schemas.rosmsg import encode_flange_pose
 
-from . import caps, colour, holes, rim, visibility
+from . import board_grid, caps, colour, holes, rim, visibility
 from .caps import fit_top
 from .components import fill_holes, label8, label_boxes, max_filter
-from .depth_clean import bridge, consistent_at, median_chroma, of_colour
+from .depth_clean import bridge, consistent_at, median_chroma, of_colour, pixel_spacing
 from .kernels import warm_kernels
 from .outline import boundary_points, grid_boundary
 from .pick import PickParams, first_pick
@@ -79,17 +79,20 @@ def compile_kernels() -> None:
     max_filter(label8(two)[0], 3)
     label_boxes(*label8(two))
     fill_holes(two)
-    grid_boundary(two)
     xyz = np.zeros((3, 6, 6), dtype=np.float32)
     change_frame(xyz, np.eye(4))
     consistent_at(xyz, two, 0.01)
+    pixel_spacing(xyz, 4)
+    f32 = np.float32
+    board_grid.plane_candidates(xyz.reshape(3, -1), f32(1.0), f32(1.0), f32(0.01), 10)
+    board_grid.board_outline(xyz, f32(0.01), 1.0, 1.0, 2)
+    board_grid.reach_hits(two, *grid_boundary(two), 2)  # the unorganized clouds' outline
     rgb = np.zeros((6, 6, 3), dtype=np.uint8)
     own = median_chroma(rgb, *np.nonzero(two))
     of_colour(rgb[two], own, 0.25)
     bridge(two, ~two, rgb, 0.25)
     x, y = (v.ravel().astype(np.float32) for v in np.mgrid[0:6, 0:6])
     fit_plane(x, y, np.zeros_like(x), (0.01,), 3)
-    f32 = np.float32
     holes.bordered_patches(two, ~two, xyz[2], f32(0.005), f32(0.0), f32(0.01), 3)
     _compile_layouts(two, own)
 

@@ -43,6 +43,22 @@ SOFIA = str(Path(sys.executable).with_name("sofia"))
 CLK_TCK = os.sysconf("SC_CLK_TCK")
 
 
+def cpu_model() -> str:
+    """The processor's model name and clock as the kernel reports them (runs on hosts of several
+    speeds are compared by it), or "processor unknown"."""
+    try:
+        text = Path("/proc/cpuinfo").read_text()
+    except OSError:
+        return "processor unknown"
+    info: dict[str, str] = {}
+    for line in text.splitlines():  # the first processor's fields
+        key, sep, value = line.partition(":")
+        if sep:
+            info.setdefault(key.strip(), value.strip())
+    name, mhz = info.get("model name") or "processor unknown", info.get("cpu MHz")
+    return f"{name} at {float(mhz):.0f} MHz" if mhz else name
+
+
 def cpu_seconds(pid: int) -> float:
     fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
     return (int(fields[11]) + int(fields[12])) / CLK_TCK
@@ -238,7 +254,7 @@ def main() -> int:
     print(
         f"{a.seconds:.0f} s of 640x480 base-frame clouds replayed at {a.rate:.0f} Hz ({n_frames}-frame synthetic "
         f"recording in a loop, restamped{', preloaded' if preload else ''}) -> sofia detector serve --backlog "
-        f"{a.backlog} -> a subscriber in a separate process; {os.cpu_count()} CPUs, load average "
+        f"{a.backlog} -> a subscriber in a separate process; {os.cpu_count()} CPUs ({cpu_model()}), load average "
         f"{' '.join(f'{x:.1f}' for x in os.getloadavg())} at the end\n"
     )
     print("| metric | value | reference | ratio |")

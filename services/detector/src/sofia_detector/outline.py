@@ -126,6 +126,34 @@ def min_area_rect(xy: np.ndarray, max_yaw: float | None = None) -> Rect:
     return Rect(float(yaw), lo, hi)
 
 
+@jit
+def _side_counts(
+    xy: np.ndarray, drop_xy: np.ndarray | None, R: np.ndarray, side_band: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """Per side of a rectangle (x lo, y lo, x hi, y hi; axes the columns of ``R`` (2, 2)): how many
+    of the points ``xy`` (k, 2) lie within ``side_band`` of the outermost one, and how many of those
+    drop outwards (``drop_xy`` (k, 2) within 60 degrees of the side's normal; None: all do)."""
+    k = xy.shape[0]
+    u = np.empty((4, k))  # outwards of each side
+    for i in range(k):
+        u[2, i] = R[0, 0] * xy[i, 0] + R[1, 0] * xy[i, 1]
+        u[3, i] = R[0, 1] * xy[i, 0] + R[1, 1] * xy[i, 1]
+        u[0, i], u[1, i] = -u[2, i], -u[3, i]
+    n_near, n_out = np.zeros(4, dtype=np.int64), np.zeros(4, dtype=np.int64)
+    for s in range(4):
+        edge = u[s].max() - side_band
+        for i in range(k):
+            if u[s, i] >= edge:
+                n_near[s] += 1
+                if drop_xy is None:
+                    n_out[s] += 1
+                    continue
+                dx, dy = drop_xy[i, 0], drop_xy[i, 1]
+                d = R[0, s % 2] * dx + R[1, s % 2] * dy
+                n_out[s] += (d if s >= 2 else -d) > 0.5 * np.hypot(dx, dy)
+    return n_near, n_out
+
+
 def fit_outline(
     boundary_xy: np.ndarray,
     field_extent: tuple[float, float],
@@ -154,14 +182,9 @@ def fit_outline(
     """
     rect = min_area_rect(boundary_xy, max_yaw)
     R = rect.R
-    u = R.T @ np.asarray(boundary_xy, dtype=np.float64).T  # (2, k) along the rectangle's axes
-    beyond = np.concatenate([-u, u])  # (4, k) outwards of the sides x lo, y lo, x hi, y hi
-    near = beyond >= beyond.max(axis=1, keepdims=True) - side_band
-    out = near
-    if drop_xy is not None:  # drops outwards of the side, within 60 degrees of its normal
-        d = R.T @ np.asarray(drop_xy, dtype=np.float64).T
-        out = near & (np.concatenate([-d, d]) > 0.5 * np.hypot(d[0], d[1]))
-    n_near, n_out = np.count_nonzero(near, axis=1), np.count_nonzero(out, axis=1)
+    xy = np.ascontiguousarray(boundary_xy, dtype=np.float64)
+    drops = None if drop_xy is None else np.ascontiguousarray(drop_xy, dtype=np.float64)
+    n_near, n_out = _side_counts(xy, drops, R, side_band)
     edge = (n_out >= edge_share * np.maximum(n_near, 1)).tolist()
     lo, hi, ext = rect.lo.tolist(), rect.hi.tolist(), field_extent
     size = [hi[a] - lo[a] for a in (0, 1)]

@@ -27,7 +27,7 @@ from .caps import fit_top
 from .components import fill_holes, label8, label_boxes, max_filter
 from .depth_clean import bridge, consistent_at, median_chroma, of_colour, pixel_spacing
 from .kernels import warm_kernels
-from .outline import boundary_points, grid_boundary
+from .outline import boundary_points, fit_outline, grid_boundary
 from .pick import PickParams, first_pick
 from .pixels import median, median_u8_at
 from .plane import change_frame, fit_plane, points_in_frame
@@ -87,6 +87,8 @@ def compile_kernels() -> None:
     board_grid.plane_candidates(xyz.reshape(3, -1), f32(1.0), f32(1.0), f32(0.01), 10)
     board_grid.board_outline(xyz, f32(0.01), 1.0, 1.0, 2)
     board_grid.reach_hits(two, *grid_boundary(two), 2)  # the unorganized clouds' outline
+    square = np.array([[0, 0], [1, 0], [1, 1], [0, 1]], dtype=np.float32).repeat(2, axis=0)
+    fit_outline(square, (1.0, 1.0), 0.1, 0.01, np.zeros((8, 2)))
     rgb = np.zeros((6, 6, 3), dtype=np.uint8)
     own = median_chroma(rgb, *np.nonzero(two))
     of_colour(rgb[two], own, 0.25)

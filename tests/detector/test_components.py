@@ -49,7 +49,8 @@ def test_max_filter_and_fill_holes_are_scipys() -> None:
 
 
 def test_grid_boundary_is_the_first_and_last_cell_of_every_row_and_column() -> None:
-    """Of a mask, and of its pixels given by index in any order (:func:`boundary_points`)."""
+    """Of a mask, and of its pixels given by index in any order (:func:`boundary_points`), all of
+    them or a subset."""
     rng = np.random.default_rng(2)
     for mask in _masks(2, 200):
         rows, cols = grid_boundary(mask)
@@ -66,6 +67,12 @@ def test_grid_boundary_is_the_first_and_last_cell_of_every_row_and_column() -> N
         order = rng.permutation(r.size)
         at = boundary_points(r[order], c[order], h, w)
         assert np.array_equal(r[order][at], ref_rows) and np.array_equal(c[order][at], ref_cols)
+        # a subset of the pixels: indices into all of them, the points of the gathered subset's
+        subset = rng.random(r.size) < 0.6
+        ro, co = r[order], c[order]
+        at = boundary_points(ro, co, h, w, subset)
+        want = boundary_points(ro[subset], co[subset], h, w)
+        assert np.array_equal(at, np.flatnonzero(subset)[want])
 
 
 @pytest.mark.parametrize("tol", [0.05, 0.25, 0.6])

@@ -84,13 +84,18 @@ def grid_boundary(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 @jit
-def boundary_points(rows: np.ndarray, cols: np.ndarray, h: int, w: int) -> np.ndarray:
+def boundary_points(
+    rows: np.ndarray, cols: np.ndarray, h: int, w: int, subset: np.ndarray | None = None
+) -> np.ndarray:
     """:func:`grid_boundary` of pixels given by index: (k,) indices into rows, cols (n,) (distinct
     pixels of an (h, w) grid) of the first and last pixel of every non-empty row, then of every
-    non-empty column, in :func:`grid_boundary`'s order."""
+    non-empty column, in :func:`grid_boundary`'s order. subset: (n,) bool, only those pixels
+    (the indices still into rows, cols: nothing is gathered)."""
     first_c, last_c = np.full(h, -1), np.full(h, -1)  # the point at the row's first, last column
     first_r, last_r = np.full(w, -1), np.full(w, -1)
     for i in range(rows.size):
+        if subset is not None and not subset[i]:
+            continue
         r, c = rows[i], cols[i]
         if first_c[r] < 0 or c < cols[first_c[r]]:
             first_c[r] = i

@@ -42,12 +42,9 @@ class ObjectPoints:
     def boundary_xy(self, subset: np.ndarray | None = None) -> np.ndarray:
         """(k, 2) points of ``subset`` ((n,) bool, default all) including every vertex of the
         convex hull of their footprint."""
-        b = self.b if subset is None else self.b[:, subset]
         if self.rows is None or self.cols is None:
-            return hull(b[:2].T)
-        rows = self.rows if subset is None else self.rows[subset]
-        cols = self.cols if subset is None else self.cols[subset]
-        return b[:2, boundary_points(rows, cols, self.shape[0], self.shape[1])].T
+            return hull((self.b if subset is None else self.b[:, subset])[:2].T)
+        return self.b[:2, boundary_points(self.rows, self.cols, self.shape[0], self.shape[1], subset)].T
 
 
 def inside(xy: np.ndarray, half: np.ndarray) -> bool:

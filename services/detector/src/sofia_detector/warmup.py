@@ -126,6 +126,8 @@ def _compile_layouts(two: np.ndarray, own: np.ndarray) -> None:
         rim._rim_pixels(two, h, f32(0.01))
     median(rgb[two])
     boundary_points(index, index, 6, 6)
+    for subset in (None, index > 2):  # all of an object's pixels, a subset of them
+        boundary_points(index, index, 6, 6, subset)
     fit_circle(np.random.default_rng(0).normal(size=(20, 2)))
     z = xyz[2].ravel()
     for heights in (z, z[::2], z.astype(np.float64)):

@@ -8,13 +8,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from scipy import ndimage
-from sofia_detector import colour, holes, rim, visibility
+from sofia_detector import colour, footprint, holes, rim, visibility
 from sofia_detector.caps import fit_top
 from sofia_detector.components import label8, label_boxes
 from sofia_detector.depth_clean import median_chroma, of_colour
 from sofia_detector.pixels import grow, grow_jit, median, median_u8_at, shrink
 from sofia_detector.plane import change_frame, coords, points_in_frame
 from sofia_detector.rim import fit_circle
+from sofia_detector.segment import ObjectPoints
 from sofia_schemas import Board
 
 
@@ -48,6 +49,29 @@ def test_label_boxes_are_scipys_find_objects() -> None:
         labels, n = label8(mask)
         boxes = [(s[0].start, s[0].stop, s[1].start, s[1].stop) for s in ndimage.find_objects(labels)]
         assert label_boxes(labels, n).tolist() == [list(b) for b in boxes]
+
+
+def test_a_faces_specks_go_as_the_numpy_form_drops_them() -> None:
+    """:func:`footprint._solid`: the pieces of a subset of an object's pixels smaller than 10 % of
+    the largest (and than 10 pixels) go, as the numpy steps (scatter, SciPy's labels, bincount)
+    dropped them."""
+    rng = np.random.default_rng(4)
+    for mask, _, _ in _windows(5, 150):
+        rows, cols = np.nonzero(mask)
+        if rows.size < 3:
+            continue
+        obj = ObjectPoints(np.zeros((3, rows.size), np.float32), rows, cols, mask.shape)
+        subset = rng.random(rows.size) < rng.uniform(0.3, 1.0)
+        grid = np.zeros(mask.shape, dtype=bool)
+        grid[rows[subset], cols[subset]] = True
+        labels, n = ndimage.label(grid, structure=np.ones((3, 3)))
+        want = subset
+        if n >= 2 and np.count_nonzero(subset) >= 3:
+            sizes = np.bincount(labels.ravel())
+            sizes[0] = 0
+            keep = sizes >= min(max(10.0, 0.1 * sizes.max()), sizes.max())
+            want = subset & keep[labels[rows, cols]]
+        assert np.array_equal(footprint._solid(obj, subset), want)
 
 
 def test_median_at_pixels_is_the_median_of_the_gathered_colours() -> None:

@@ -14,8 +14,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .caps import fit_cone, fit_cone_apex, fit_top
-from .components import label8
+from .components import label8_jit
 from .holes import unseen_top
+from .kernels import jit
 from .outline import min_area_rect
 from .params import DetectorParams
 from .pixels import median
@@ -82,15 +83,30 @@ def _solid(obj: ObjectPoints, subset: np.ndarray) -> np.ndarray:
     slipped through at the same height, not part of a face."""
     if obj.rows is None or obj.cols is None or np.count_nonzero(subset) < 3:
         return subset
-    grid = np.zeros(obj.shape, dtype=bool)
-    grid[obj.rows[subset], obj.cols[subset]] = True
-    labels, n = label8(grid)
+    return _solid_jit(obj.rows, obj.cols, subset, obj.shape[0], obj.shape[1])  # type: ignore[no-any-return]
+
+
+@jit
+def _solid_jit(rows: np.ndarray, cols: np.ndarray, subset: np.ndarray, h: int, w: int) -> np.ndarray:
+    """:func:`_solid` of the pixels (rows, cols) (n,) of an (h, w) grid."""
+    grid = np.zeros((h, w), dtype=np.bool_)
+    for i in range(rows.size):
+        if subset[i]:
+            grid[rows[i], cols[i]] = True
+    labels, n = label8_jit(grid)
     if n < 2:
-        return subset
-    sizes = np.bincount(labels.ravel())
+        return subset.copy()
+    sizes = np.zeros(n + 1, dtype=np.int64)
+    for r in range(h):
+        for c in range(w):
+            sizes[labels[r, c]] += 1
     sizes[0] = 0
-    keep = sizes >= min(max(10.0, 0.1 * sizes.max()), sizes.max())
-    return subset & keep[labels[obj.rows, obj.cols]]
+    largest = sizes.max()
+    least = min(max(10.0, 0.1 * largest), largest)
+    out = np.empty(rows.size, dtype=np.bool_)
+    for i in range(rows.size):
+        out[i] = subset[i] and sizes[labels[rows[i], cols[i]]] >= least
+    return out
 
 
 def estimate_object(

@@ -22,7 +22,7 @@ from sofia_schemas.messages import Detection
 from sofia_schemas.ros2.encoding import decode_flange
 from sofia_schemas.rosmsg import encode_flange_pose
 
-from . import board_grid, caps, colour, holes, rim, visibility
+from . import board_grid, caps, colour, footprint, holes, rim, visibility
 from .caps import fit_top
 from .components import fill_holes, label8, label_boxes, max_filter
 from .depth_clean import bridge, consistent_at, median_chroma, of_colour, pixel_spacing
@@ -128,6 +128,7 @@ def _compile_layouts(two: np.ndarray, own: np.ndarray) -> None:
     boundary_points(index, index, 6, 6)
     for subset in (None, index > 2):  # all of an object's pixels, a subset of them
         boundary_points(index, index, 6, 6, subset)
+    footprint._solid_jit(index, index, index > 2, 6, 6)
     fit_circle(np.random.default_rng(0).normal(size=(20, 2)))
     z = xyz[2].ravel()
     for heights in (z, z[::2], z.astype(np.float64)):

@@ -12,7 +12,7 @@ from sofia_detector import colour, footprint, holes, rim, visibility
 from sofia_detector.caps import fit_top
 from sofia_detector.components import label8, label_boxes
 from sofia_detector.depth_clean import median_chroma, of_colour
-from sofia_detector.pixels import grow, grow_jit, median, median_u8_at, shrink
+from sofia_detector.pixels import grow, grow_jit, masked_points, median, median_u8_at, shrink, where
 from sofia_detector.plane import change_frame, coords, points_in_frame
 from sofia_detector.rim import fit_circle
 from sofia_detector.segment import ObjectPoints
@@ -49,6 +49,15 @@ def test_label_boxes_are_scipys_find_objects() -> None:
         labels, n = label8(mask)
         boxes = [(s[0].start, s[0].stop, s[1].start, s[1].stop) for s in ndimage.find_objects(labels)]
         assert label_boxes(labels, n).tolist() == [list(b) for b in boxes]
+
+
+def test_masked_points_are_the_gathered_pixels() -> None:
+    for mask, z, _ in _windows(6, 100):
+        c = np.stack([z, z * 2, z * 3])
+        points, rows, cols = masked_points(c, mask)
+        r, q = where(mask)
+        assert np.array_equal(rows, r) and np.array_equal(cols, q) and rows.dtype == r.dtype
+        assert points.dtype == c.dtype and np.array_equal(points, c[:, r, q], equal_nan=True)
 
 
 def test_a_faces_specks_go_as_the_numpy_form_drops_them() -> None:

@@ -19,6 +19,28 @@ def where(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return divmod(np.flatnonzero(mask), mask.shape[1])  # type: ignore[no-any-return]
 
 
+@jit
+def masked_points(c: np.ndarray, mask: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(c[:, rows, cols], rows, cols)`` for ``rows, cols = where(mask)`` in one pass: (3, n)
+    coordinates of the pixels of ``mask`` (h, w) bool from ``c`` (3, h, w), and their (n,) int64
+    rows and columns, in row-major order."""
+    h, w = mask.shape
+    n = 0
+    for r in range(h):
+        for q in range(w):
+            n += mask[r, q]
+    out = np.empty((3, n), dtype=c.dtype)
+    rows, cols = np.empty(n, dtype=np.int64), np.empty(n, dtype=np.int64)
+    k = 0
+    for r in range(h):
+        for q in range(w):
+            if mask[r, q]:
+                out[0, k], out[1, k], out[2, k] = c[0, r, q], c[1, r, q], c[2, r, q]
+                rows[k], cols[k] = r, q
+                k += 1
+    return out, rows, cols
+
+
 def grow(mask: np.ndarray, size: int) -> np.ndarray:
     """(h, w) bool ``mask`` dilated by a ``size`` x ``size`` square (``size`` odd)."""
     k = size // 2

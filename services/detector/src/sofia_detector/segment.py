@@ -15,7 +15,7 @@ from .components import label8, label_boxes
 from .depth_clean import bridge, consistent_at
 from .outline import boundary_points, hull
 from .params import DetectorParams
-from .pixels import where
+from .pixels import masked_points, where
 from .plane import points_in_frame
 
 MIN_PART = 10  # pixels of the smallest part standing on an object that is joined to it
@@ -136,9 +136,9 @@ def organized_objects(
         if n_pieces > pieces.size:
             obj = _with_parts_on_top(wl, n_pieces, b, obj, pieces)
         claimed.append((r0, c0, obj))
-        rows_obj, cols_obj = where(obj)
+        points, rows_obj, cols_obj = masked_points(b, obj)
         yield ObjectPoints(
-            b[:, rows_obj, cols_obj], rows_obj, cols_obj, obj.shape, (r0, c0), (H, W), b,
+            points, rows_obj, cols_obj, obj.shape, (r0, c0), (H, W), b,
             None if rgb is None else rgb[r0:r1, c0:c1],
         )  # fmt: skip
 

@@ -29,7 +29,7 @@ from .depth_clean import bridge, consistent_at, median_chroma, of_colour, pixel_
 from .kernels import warm_kernels
 from .outline import boundary_points, fit_outline, grid_boundary
 from .pick import PickParams, first_pick
-from .pixels import median, median_u8_at
+from .pixels import masked_points, median, median_u8_at
 from .plane import change_frame, fit_plane, points_in_frame
 from .rim import fit_circle
 
@@ -82,6 +82,7 @@ def compile_kernels() -> None:
     xyz = np.zeros((3, 6, 6), dtype=np.float32)
     change_frame(xyz, np.eye(4))
     consistent_at(xyz, two, 0.01)
+    masked_points(xyz, two)
     pixel_spacing(xyz, 4)
     f32 = np.float32
     board_grid.plane_candidates(xyz.reshape(3, -1), f32(1.0), f32(1.0), f32(0.01), 10)

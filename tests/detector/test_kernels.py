@@ -83,8 +83,10 @@ def test_least_area_box_is_the_least_over_the_allowed_edges(seed: int, n: int, m
     else:
         assert yaw == 0.0
     if max_yaw == np.inf:  # one side lies along a hull edge: the least over every yaw
-        brute = _brute_area(xy)
-        assert brute * (1 - 1e-3) <= ours <= brute * (1 + 1e-9)
+        # no sampled yaw gives a smaller box; the brute force may miss the least by more than its
+        # yaw step suggests (a thin triangle: 0.2 % at seed 718, n 3), and the bounds below check
+        # that ours is the tight box at its own yaw, so it cannot be too small
+        assert ours <= _brute_area(xy) * (1 + 1e-9)
     c, s = np.cos(yaw), np.sin(yaw)  # the bounds hold every point
     u, w = c * xy[:, 0] + s * xy[:, 1], -s * xy[:, 0] + c * xy[:, 1]
     assert np.allclose([u.min(), w.min()], lo) and np.allclose([u.max(), w.max()], hi)
@@ -150,6 +152,10 @@ HELPERS = {
     "pixels._counted_median",
     "pixels.grow_jit",
     "plane._in_frame",
+    "sums._block",
+    "sums._interleaved",
+    "sums._pairwise",
+    "sums._sequential",
     "kernels._turn",
     "kernels.solve_spd",
 }

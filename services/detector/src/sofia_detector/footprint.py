@@ -141,7 +141,7 @@ def estimate_object(
     h = b[2]
     k = max(h.size - 1 - h.size // 100, 0)
     h_hi = float(np.partition(h, k)[k])  # 99th percentile
-    depth = float(np.clip(0.14 * h_hi, 0.004, 0.012))
+    depth = min(max(0.14 * h_hi, 0.004), 0.012)
     rect = min_area_rect(obj.boundary_xy())
     R = rect.R
     mid, half = (rect.lo + rect.hi) / 2, np.maximum(rect.size / 2, 1e-4)

@@ -144,7 +144,6 @@ after = {name: len(f.signatures) for name, f in kernels.items()}
 print(json.dumps({"before": before, "after": after, "statuses": statuses}))
 """
 HELPERS = {
-    "board_grid._extremes",
     "components._root",
     "components._union",
     "depth_clean._chroma_px",

@@ -14,6 +14,7 @@ import numpy as np
 
 from .components import label8_jit
 from .kernels import jit
+from .outline import boundary_points
 
 
 @jit
@@ -40,38 +41,6 @@ def plane_candidates(
                 k += 1
             seen += 1
     return out
-
-
-@jit
-def _extremes(labels: np.ndarray, keep: int) -> tuple[np.ndarray, np.ndarray]:
-    """(rows (k,), cols (k,)) of the first and last cell of label ``keep`` in every row of
-    ``labels`` (h, w) that has one, then in every column: :func:`.outline.grid_boundary`'s order."""
-    h, w = labels.shape
-    first_c, last_c = np.full(h, -1), np.full(h, -1)
-    first_r, last_r = np.full(w, -1), np.full(w, -1)
-    for r in range(h):
-        for c in range(w):
-            if labels[r, c] == keep:
-                if first_c[r] < 0:
-                    first_c[r] = c
-                last_c[r] = c
-                if first_r[c] < 0:
-                    first_r[c] = r
-                last_r[c] = r
-    n_r, n_c = np.count_nonzero(first_c >= 0), np.count_nonzero(first_r >= 0)
-    rows, cols = np.empty(2 * (n_r + n_c), dtype=np.int64), np.empty(2 * (n_r + n_c), dtype=np.int64)
-    k = 0
-    for side in range(2):
-        for r in range(h):
-            if first_c[r] >= 0:
-                rows[k], cols[k] = r, first_c[r] if side == 0 else last_c[r]
-                k += 1
-    for side in range(2):
-        for c in range(w):
-            if first_r[c] >= 0:
-                rows[k], cols[k] = first_r[c] if side == 0 else last_r[c], c
-                k += 1
-    return rows, cols
 
 
 @jit
@@ -120,7 +89,16 @@ def board_outline(
     for k in range(2, n + 1):
         if sizes[k] > sizes[keep]:
             keep = k
-    rows, cols = _extremes(labels, keep if n else -1)
+    count = sizes[keep] if n else 0
+    rows, cols = np.empty(count, dtype=np.int64), np.empty(count, dtype=np.int64)
+    k = 0
+    for r in range(h):  # the patch's cells in row-major order, as np.nonzero lists them
+        for c in range(w):
+            if labels[r, c] == keep:
+                rows[k], cols[k] = r, c
+                k += 1
+    at = boundary_points(rows, cols, h, w)
+    rows, cols = rows[at], cols[at]
     xy = np.empty((rows.size, 2), dtype=np.float32)
     A = np.empty((rows.size, 5))
     for i in range(rows.size):

@@ -60,7 +60,7 @@ def test_board_outline_is_the_numpy_steps(seed: int) -> None:
     half = np.array([0.3, 0.25]) + 0.0  # numpy float64, as the board fit passes it
     for m in _grids(seed, 25):
         for reach in (1, EDGE_REACH_PX, 5):
-            xy, A, hits = board_outline(m, np.float32(0.008), half[0], half[1], reach)
+            xy, A, hits = board_outline(m, np.float32(0.008), half[0], half[1], _reach_steps(reach))
             want = _numpy_outline(m, 0.008, half, reach)
             if want is None:
                 assert xy.shape == (0, 2) and A.shape == (0, 5) and hits.shape == (0, 4 * reach)
@@ -74,7 +74,7 @@ def test_board_outline_is_the_numpy_steps(seed: int) -> None:
 
 def test_reach_hits_off_the_grid_are_false() -> None:
     low = np.ones((3, 3), dtype=bool)
-    hits = reach_hits(low, np.array([0, 1]), np.array([0, 1]), 2)
+    hits = reach_hits(low, np.array([0, 1]), np.array([0, 1]), _reach_steps(2))
     # (0, 0): down 1, 2 on the grid, up off it, right 1, 2 on it, left off it
     assert hits[0].tolist() == [True, True, False, False, True, True, False, False]
     assert hits[1].tolist() == [True, False, True, False, True, False, True, False]

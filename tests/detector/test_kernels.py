@@ -146,6 +146,7 @@ print(json.dumps({"before": before, "after": after, "statuses": statuses}))
 HELPERS = {
     "components._root",
     "components._union",
+    "components.label_sizes",
     "depth_clean._chroma_px",
     "depth_clean.same_colour",
     "pixels._counted_median",

@@ -10,7 +10,7 @@ import pytest
 from scipy import ndimage
 from sofia_detector import colour, footprint, holes, rim, visibility
 from sofia_detector.caps import fit_top
-from sofia_detector.components import label8, label_boxes
+from sofia_detector.components import label8, label_boxes, label_sizes
 from sofia_detector.depth_clean import median_chroma, of_colour
 from sofia_detector.pixels import grow, grow_jit, masked_points, median, median_u8_at, shrink, where
 from sofia_detector.plane import change_frame, coords, points_in_frame
@@ -42,6 +42,12 @@ def test_grow_jit_is_grow() -> None:
     for mask, _, _ in _windows(0, 100):
         for size in (3, 5, 7, 9):
             assert np.array_equal(grow_jit(mask, size), grow(mask, size))
+
+
+def test_label_sizes_are_numpys_bincount() -> None:
+    for mask, _, _ in _windows(7, 100):
+        labels, n = label8(mask)
+        assert label_sizes(labels, n).tolist() == np.bincount(labels.ravel(), minlength=n + 1).tolist()
 
 
 def test_label_boxes_are_scipys_find_objects() -> None:

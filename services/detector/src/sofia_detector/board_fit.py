@@ -49,7 +49,7 @@ def _drops(low: np.ndarray, r: np.ndarray, c: np.ndarray, reach: int, steps_xy: 
     grid towards the cells of ``low`` (h, w) bool within ``reach`` cells of it along the grid's
     row and column (0 where none): where the board top drops to something below it. steps_xy:
     (2, 2) plane-frame step of one grid row (column 0) and one grid column (column 1), metres."""
-    return _towards(reach_hits(np.ascontiguousarray(low), r, c, reach), reach, steps_xy)
+    return _towards(reach_hits(np.ascontiguousarray(low), r, c, _reach_steps(reach)), reach, steps_xy)
 
 
 def _towards(hits: np.ndarray, reach: int, steps_xy: np.ndarray) -> np.ndarray:
@@ -95,7 +95,7 @@ def _grid_outline_points(m: np.ndarray, band: float, half: np.ndarray) -> tuple[
     taken on every second cell (plenty); cells lower than ``-band`` lie below it, within
     :data:`EDGE_REACH_PX` cells. Returns (k, 2) float32 and (k, 2) float64 plane-frame vectors.
     """
-    xy, A, hits = board_outline(m, np.float32(band), half[0], half[1], EDGE_REACH_PX)
+    xy, A, hits = board_outline(m, np.float32(band), half[0], half[1], _reach_steps(EDGE_REACH_PX))
     if xy.shape[0] == 0:
         return np.empty((0, 2)), np.empty((0, 2))
     return xy, _towards(hits, EDGE_REACH_PX, _grid_steps(A))

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .components import label8_jit
+from .components import label8_jit, label_sizes
 from .kernels import jit
 from .outline import boundary_points
 
@@ -44,24 +44,22 @@ def plane_candidates(
 
 
 @jit
-def reach_hits(low: np.ndarray, r: np.ndarray, c: np.ndarray, reach: int) -> np.ndarray:
-    """(k, 4 reach) bool: whether ``low`` (h, w) bool is set 1..reach cells down, up, right and left
-    (:func:`.board_fit._reach_steps`' order) of each cell ``(r, c)`` (k,); False off the grid."""
+def reach_hits(low: np.ndarray, r: np.ndarray, c: np.ndarray, steps: np.ndarray) -> np.ndarray:
+    """(k, s) bool: whether ``low`` (h, w) bool is set at each of the ``steps`` (s, 2) int (row,
+    column) from each cell ``(r, c)`` (k,) (:func:`.board_fit._reach_steps`); False off the grid."""
     h, w = low.shape
-    hits = np.zeros((r.size, 4 * reach), dtype=np.bool_)
+    hits = np.zeros((r.size, steps.shape[0]), dtype=np.bool_)
     for i in range(r.size):
-        for j in range(4):
-            dr, dc = (1, -1, 0, 0)[j], (0, 0, 1, -1)[j]
-            for d in range(1, reach + 1):
-                rr, cc = r[i] + d * dr, c[i] + d * dc
-                if 0 <= rr < h and 0 <= cc < w:
-                    hits[i, j * reach + d - 1] = low[rr, cc]
+        for j in range(steps.shape[0]):
+            rr, cc = r[i] + steps[j, 0], c[i] + steps[j, 1]
+            if 0 <= rr < h and 0 <= cc < w:
+                hits[i, j] = low[rr, cc]
     return hits
 
 
 @jit
 def board_outline(
-    m: np.ndarray, band: np.float32, half_x: float, half_y: float, reach: int
+    m: np.ndarray, band: np.float32, half_x: float, half_y: float, steps: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The outline of the board top on every second cell of an organized coarse grid.
 
@@ -69,8 +67,8 @@ def board_outline(
     the plane (float32), within ``half_x``, ``half_y`` of its centre (float64); below it: cells
     lower than ``-band``. Returns (k, 2) float32 plane-frame points at :func:`.outline.grid_boundary`
     of the top's largest 8-connected patch, (k, 5) float64 rows ``(row, col, 1, x, y)`` of those
-    cells (for the grid-step fit), and (k, 4 reach) bool :func:`reach_hits` of the cells below the
-    top; k is 0 when no cell is on the top.
+    cells (for the grid-step fit), and (k, s) bool :func:`reach_hits` of the cells below the top at
+    ``steps`` (s, 2) from each; k is 0 when no cell is on the top.
     """
     h, w = (m.shape[1] + 1) // 2, (m.shape[2] + 1) // 2
     top = np.zeros((h, w), dtype=np.bool_)
@@ -81,10 +79,7 @@ def board_outline(
             top[r, c] = abs(z) < band and abs(np.float64(x)) < half_x and abs(np.float64(y)) < half_y
             low[r, c] = z < -band
     labels, n = label8_jit(top)
-    sizes = np.zeros(n + 1, dtype=np.int64)
-    for r in range(h):
-        for c in range(w):
-            sizes[labels[r, c]] += 1
+    sizes = label_sizes(labels, n)
     keep = 1  # the largest patch; the first of equal ones (labels in scan order)
     for k in range(2, n + 1):
         if sizes[k] > sizes[keep]:
@@ -104,4 +99,4 @@ def board_outline(
     for i in range(rows.size):
         xy[i, 0], xy[i, 1] = m[0, 2 * rows[i], 2 * cols[i]], m[1, 2 * rows[i], 2 * cols[i]]
         A[i, 0], A[i, 1], A[i, 2], A[i, 3], A[i, 4] = rows[i], cols[i], 1.0, xy[i, 0], xy[i, 1]
-    return xy, A, reach_hits(low, rows, cols, reach)
+    return xy, A, reach_hits(low, rows, cols, steps)

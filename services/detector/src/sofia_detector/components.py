@@ -105,6 +105,17 @@ def label_boxes(labels: np.ndarray, n: int) -> np.ndarray:
 
 
 @jit
+def label_sizes(labels: np.ndarray, n: int) -> np.ndarray:
+    """(n + 1,) int64 pixel count of each label 0..n of ``labels`` (h, w) int, as
+    ``np.bincount(labels.ravel(), minlength=n + 1)`` counts them (0: the pixels off every label)."""
+    sizes = np.zeros(n + 1, dtype=np.int64)
+    for r in range(labels.shape[0]):
+        for c in range(labels.shape[1]):
+            sizes[labels[r, c]] += 1
+    return sizes
+
+
+@jit
 def max_filter_jit(a: np.ndarray, k: int) -> np.ndarray:
     """:func:`max_filter` of a C-contiguous int32 array over a (2 k + 1) square, callable from
     compiled code."""

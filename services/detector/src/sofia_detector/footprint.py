@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .caps import fit_cone, fit_cone_apex, fit_top
-from .components import label8_jit
+from .components import label8_jit, label_sizes
 from .holes import unseen_top
 from .kernels import jit
 from .outline import min_area_rect
@@ -97,10 +97,7 @@ def _solid_jit(rows: np.ndarray, cols: np.ndarray, subset: np.ndarray, h: int, w
     labels, n = label8_jit(grid)
     if n < 2:
         return subset.copy()
-    sizes = np.zeros(n + 1, dtype=np.int64)
-    for r in range(h):
-        for c in range(w):
-            sizes[labels[r, c]] += 1
+    sizes = label_sizes(labels, n)
     sizes[0] = 0
     largest = sizes.max()
     least = min(max(10.0, 0.1 * largest), largest)

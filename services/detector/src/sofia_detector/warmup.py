@@ -22,7 +22,7 @@ from sofia_schemas.messages import Detection
 from sofia_schemas.ros2.encoding import decode_flange
 from sofia_schemas.rosmsg import encode_flange_pose
 
-from . import board_grid, caps, colour, footprint, holes, rim, sums, visibility
+from . import board_fit, board_grid, caps, colour, footprint, holes, rim, sums, visibility
 from .caps import fit_top
 from .components import fill_holes, label8, label_boxes, max_filter
 from .depth_clean import bridge, consistent_at, median_chroma, of_colour, pixel_spacing
@@ -90,8 +90,8 @@ def compile_kernels() -> None:
     pixel_spacing(xyz, 4)
     f32 = np.float32
     board_grid.plane_candidates(xyz.reshape(3, -1), f32(1.0), f32(1.0), f32(0.01), 10)
-    board_grid.board_outline(xyz, f32(0.01), 1.0, 1.0, 2)
-    board_grid.reach_hits(two, *grid_boundary(two), 2)  # the unorganized clouds' outline
+    board_grid.board_outline(xyz, f32(0.01), 1.0, 1.0, board_fit._reach_steps(2))
+    board_grid.reach_hits(two, *grid_boundary(two), board_fit._reach_steps(2))  # unorganized clouds
     square = np.array([[0, 0], [1, 0], [1, 1], [0, 1]], dtype=np.float32).repeat(2, axis=0)
     fit_outline(square, (1.0, 1.0), 0.1, 0.01, np.zeros((8, 2)))
     rgb = np.zeros((6, 6, 3), dtype=np.uint8)

@@ -238,8 +238,9 @@ def test_generated_layouts_round_trip(
     assert sorted(cloud.field_names()) == sorted(f[0] for f in fields)
     for name, *_ in fields:
         assert cloud.field(name).tobytes() == np.ascontiguousarray(expected[name]).tobytes()
-    xyz = cloud.xyz().reshape(n, 3)
-    want = np.stack([expected[c].astype(np.float64) for c in "xyz"], axis=-1)
+    with np.errstate(invalid="ignore"):  # random bytes hold signalling NaNs: widening quiets them
+        xyz = cloud.xyz().reshape(n, 3)
+        want = np.stack([expected[c].astype(np.float64) for c in "xyz"], axis=-1)
     np.testing.assert_array_equal(xyz.astype(np.float64), want)
     assert bytes(pointcloud.encode(cloud)) == cdr
 

@@ -10,7 +10,7 @@ import pytest
 from scipy import ndimage
 from sofia_detector import colour, footprint, holes, rim, visibility
 from sofia_detector.caps import fit_top
-from sofia_detector.components import label8, label_boxes, label_sizes
+from sofia_detector.components import label8, label_boxes, label_sizes, largest_label
 from sofia_detector.depth_clean import median_chroma, of_colour
 from sofia_detector.pixels import grow, grow_jit, masked_points, median, median_u8_at, shrink, where
 from sofia_detector.plane import change_frame, coords, points_in_frame
@@ -48,6 +48,18 @@ def test_label_sizes_are_numpys_bincount() -> None:
     for mask, _, _ in _windows(7, 100):
         labels, n = label8(mask)
         assert label_sizes(labels, n).tolist() == np.bincount(labels.ravel(), minlength=n + 1).tolist()
+
+
+def test_largest_label_is_the_argmax_of_the_sizes() -> None:
+    """The first of equal largest labels (ties: every label of single pixels), none of no label."""
+    specks = np.zeros((5, 5), dtype=bool)
+    specks[::2, ::2] = True
+    for mask in [np.zeros((4, 4), dtype=bool), specks] + [w for w, _, _ in _windows(8, 100)]:
+        labels, n = label8(mask)
+        sizes = np.bincount(labels.ravel(), minlength=n + 1)
+        sizes[0] = 0
+        want = (int(np.argmax(sizes)), int(sizes.max())) if n else (-1, 0)
+        assert largest_label(labels, n) == want
 
 
 def test_label_boxes_are_scipys_find_objects() -> None:

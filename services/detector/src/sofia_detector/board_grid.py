@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .components import label8_jit, label_sizes
+from .components import label8_jit, largest_label
 from .kernels import jit
 from .outline import boundary_points
 
@@ -79,12 +79,7 @@ def board_outline(
             top[r, c] = abs(z) < band and abs(np.float64(x)) < half_x and abs(np.float64(y)) < half_y
             low[r, c] = z < -band
     labels, n = label8_jit(top)
-    sizes = label_sizes(labels, n)
-    keep = 1  # the largest patch; the first of equal ones (labels in scan order)
-    for k in range(2, n + 1):
-        if sizes[k] > sizes[keep]:
-            keep = k
-    count = sizes[keep] if n else 0
+    keep, count = largest_label(labels, n)  # the largest patch
     rows, cols = np.empty(count, dtype=np.int64), np.empty(count, dtype=np.int64)
     k = 0
     for r in range(h):  # the patch's cells in row-major order, as np.nonzero lists them

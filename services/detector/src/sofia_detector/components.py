@@ -116,6 +116,21 @@ def label_sizes(labels: np.ndarray, n: int) -> np.ndarray:
 
 
 @jit
+def largest_label(labels: np.ndarray, n: int) -> tuple[int, int]:
+    """(label, pixel count) of the largest of the labels 1..n of ``labels`` (h, w) int, the first
+    of equal ones in scan order (as ``np.argmax`` of the sizes picks it); (-1, 0), a label no
+    pixel has, when n is 0."""
+    if n == 0:
+        return -1, 0
+    sizes = label_sizes(labels, n)
+    keep = 1
+    for k in range(2, n + 1):
+        if sizes[k] > sizes[keep]:
+            keep = k
+    return keep, sizes[keep]
+
+
+@jit
 def max_filter_jit(a: np.ndarray, k: int) -> np.ndarray:
     """:func:`max_filter` of a C-contiguous int32 array over a (2 k + 1) square, callable from
     compiled code."""

@@ -15,7 +15,7 @@ from functools import cached_property
 
 import numpy as np
 
-from .components import label8
+from .components import label8, largest_label
 from .kernels import hull_indices, jit, least_area_box
 from .pixels import where
 
@@ -67,9 +67,7 @@ def largest_component(mask: np.ndarray) -> np.ndarray:
     labels, n = label8(mask)
     if n == 0:
         return mask
-    sizes = np.bincount(labels.ravel())
-    sizes[0] = 0
-    return labels == int(np.argmax(sizes))
+    return labels == largest_label(labels, n)[0]
 
 
 def grid_boundary(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -24,7 +24,7 @@ from sofia_schemas.rosmsg import encode_flange_pose
 
 from . import board_fit, board_grid, caps, colour, footprint, holes, rim, sums, visibility
 from .caps import fit_top
-from .components import fill_holes, label8, label_boxes, max_filter
+from .components import fill_holes, label8, label_boxes, largest_label, max_filter
 from .depth_clean import bridge, consistent_at, median_chroma, of_colour, pixel_spacing
 from .kernels import warm_kernels
 from .outline import boundary_points, fit_outline, grid_boundary
@@ -78,6 +78,7 @@ def compile_kernels() -> None:
     two[1, 1] = two[4, 4] = True  # two components
     max_filter(label8(two)[0], 3)
     label_boxes(*label8(two))
+    largest_label(*label8(two))  # the unorganized board outline's
     fill_holes(two)
     xyz = np.zeros((3, 6, 6), dtype=np.float32)
     change_frame(xyz, np.eye(4))

@@ -1,7 +1,7 @@
 # The two commands of the README:
 #   make demo   set up this machine and run the SofIA demo (synthetic recordings, all services)
 #   make test   set up this machine and run the tests (what CI runs)
-.PHONY: install demo test bench lint
+.PHONY: install demo test bench lint docs
 
 install:
 	@bash scripts/install.sh
@@ -11,6 +11,9 @@ demo: install
 
 test: install
 	.venv/bin/python -m pytest
+
+docs: install
+	NO_MKDOCS_2_WARNING=1 .venv/bin/mkdocs build --strict
 
 bench: install
 	.venv/bin/python bench/run_all.py

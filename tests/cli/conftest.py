@@ -1,8 +1,8 @@
-"""Fixtures of the command-line tests: the README walks' folder, laid out as after `make demo`
+"""Fixtures of the command-line tests: the docs walks' folder, laid out as after `make demo`
 (synthetic recordings in `var/recordings/`, the lab's files in `data/lab/`) with the files the
-README names as example inputs (`perception.bag`, `recording.mcap`, `data/scenes.mcap`,
-`cloud.pcd`, `scan.ply`, `points.npy`, `camera.mcap`, `T_flange_cam.yaml`, `poses.txt`, `q.txt`,
-`s.csv`, `s.json`, `rec.mcap`) made from the same synthetic data."""
+docs name as example inputs (`perception.bag`, `recording.mcap`, `data/scenes.mcap`,
+`cloud.pcd`, `scan.ply`, `points.npy`, `camera.mcap`, `T_flange_cam.yaml`, `poses.txt`, `tfs.txt`,
+`q.txt`, `s.csv`, `s.json`, `rec.mcap`) made from the same synthetic data."""
 
 from __future__ import annotations
 
@@ -20,6 +20,7 @@ import pytest
 import yaml
 from rosbags.rosbag1 import Writer
 from rosbags.typesys import Stores, get_typestore
+from scipy.spatial.transform import Rotation
 from sofia_calibrator.fk import panda_fk
 from sofia_calibrator.simulate import make_problem
 from sofia_replay import iter_messages, read_truth
@@ -84,7 +85,8 @@ def _cloud_files(cwd: Path, scenes: Path) -> None:
 
 
 def _calibration_files(cwd: Path) -> None:
-    """poses.txt + q.txt (Panda joints), s.csv and s.json: one blob seen from 10 joint configurations."""
+    """poses.txt + tfs.txt (flange poses, the lab's format) or q.txt (Panda joints), s.csv and s.json:
+    one blob seen from 10 joint configurations."""
     rng = np.random.default_rng(0)
     q = np.array([0.0, -0.5, 0.0, -2.2, 0.0, 1.9, 0.8]) + rng.uniform(-0.35, 0.35, (10, 7))
     T_base_cam = panda_fk(q) @ make_problem(3, rng).T_flange_cam
@@ -92,6 +94,12 @@ def _calibration_files(cwd: Path) -> None:
     p_cam = np.einsum("nji,nj->ni", T_base_cam[:, :3, :3], p_base - T_base_cam[:, :3, 3])
     (cwd / "q.txt").write_text("\n".join(" ".join(f"{v:.17g}" for v in r) for r in q) + "\n")
     (cwd / "poses.txt").write_text("\n".join(",".join(f"{v:.17g}" for v in r) for r in p_cam) + "\n")
+    T_base_flange = panda_fk(q)
+    quats_xyzw = Rotation.from_matrix(T_base_flange[:, :3, :3]).as_quat()
+    blocks = [f"translation: \nx: {t[0]!r}\ny: {t[1]!r}\nz: {t[2]!r}\nrotation: \n"
+              + "".join(f"{a}: {v!r}\n" for a, v in zip("xyzw", quat, strict=True))
+              for t, quat in zip(T_base_flange[:, :3, 3].tolist(), quats_xyzw.tolist(), strict=True)]  # fmt: skip
+    (cwd / "tfs.txt").write_text("".join(blocks))
     columns = ["px", "py", "pz", *(f"q{i}" for i in range(1, 8))]
     rows = [",".join(f"{v:.17g}" for v in (*p, *j)) for p, j in zip(p_cam, q, strict=True)]
     (cwd / "s.csv").write_text(",".join(columns) + "\n" + "\n".join(rows) + "\n")
@@ -101,7 +109,7 @@ def _calibration_files(cwd: Path) -> None:
 
 @pytest.fixture(scope="session")
 def walk_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """A folder laid out as after `make demo`, with the README's example inputs."""
+    """A folder laid out as after `make demo`, with the docs' example inputs."""
     cwd = tmp_path_factory.mktemp("readme")
     shutil.copytree(ROOT / "data" / "lab", cwd / "data" / "lab")
     shutil.copytree(ROOT / "config", cwd / "config")

@@ -1,10 +1,11 @@
-"""The README's commands exist as written: every `sofia ...` line of its fenced bash blocks (and every
-`$ sofia ...` line of its transcripts) parses with the real `sofia` argument tree (command path,
+"""The documented commands exist as written: every `sofia ...` line of the fenced bash blocks (and every
+`$ sofia ...` line of the transcripts) of the README, CONTRIBUTING.md and every page of the
+documentation site (``docs/``, in the order of mkdocs.yml's nav) parses with the real `sofia` argument tree (command path,
 options, choices, value types); every `make` target is in the Makefile, every compose profile and
-service in compose.yaml, every script or test path in the tree. Nothing is run: a command the README names that does not exist, or an
-option it does not take, fails here in seconds.
+service in compose.yaml, every script or test path in the tree. Nothing is run: a command the docs
+name that does not exist, or an option it does not take, fails here in seconds.
 
-The README's own notation is read as a reader would: `[--opt V]` is optional (checked with it),
+The docs' own notation is read as a reader would: `[--opt V]` is optional (checked with it),
 `a | b` after a command word and `on|off` are alternatives (each checked), `\\` continues a line,
 `&&` chains commands, `#` starts a comment, `VAR=1 sofia ...` sets the environment.
 """
@@ -36,8 +37,8 @@ def fenced_lines(text: str) -> list[tuple[int, str]]:
     lang: str | None = None
     pending, start = "", 0
     for number, line in enumerate(text.splitlines(), 1):
-        if line.startswith("```"):
-            lang = line[3:].strip() if lang is None else None
+        if line.lstrip().startswith("```"):  # a fence, also indented inside a list item
+            lang = line.lstrip()[3:].strip() if lang is None else None
             continue
         if lang is None:
             continue
@@ -58,7 +59,7 @@ def fenced_lines(text: str) -> list[tuple[int, str]]:
 
 
 def commands(line: str) -> list[list[str]]:
-    """The commands a README line stands for, each as argv (first word the program)."""
+    """The commands a documented line stands for, each as argv (first word the program)."""
     line = re.sub(r"\[([^\[\]]*)\]", r"\1", line)  # optional parts: checked as given
     tokens = shlex.split(line, comments=True)
     out: list[list[str]] = []
@@ -108,47 +109,69 @@ def old_spellings(argv: list[str]) -> set[tuple[str, str]]:
     return {(" ".join(path), t.split("=")[0]) for t in argv if t.split("=")[0] in hidden}
 
 
-# old spellings the README still uses (accepted, hidden from --help): to be replaced, none added
-KNOWN_OLD_SPELLINGS: set[tuple[str, str]] = set()  # old spellings the README may still use: none
+KNOWN_OLD_SPELLINGS: set[tuple[str, str]] = set()  # old spellings the docs may still use: none
 
 
-def readme_commands() -> list[tuple[int, list[str]]]:
-    return [(n, argv) for n, line in fenced_lines(README.read_text()) for argv in commands(line)]
+def doc_pages() -> list[Path]:
+    """The README, CONTRIBUTING.md and the site's written pages in nav order (the generated
+    reference pages hold usage lines, not commands to run)."""
+    config = yaml.load((ROOT / "mkdocs.yml").read_text(), Loader=yaml.BaseLoader)
+    pages: list[str] = []
+
+    def walk(items: object) -> None:
+        if isinstance(items, str):
+            pages.append(items)
+        for item in items if isinstance(items, list) else items.values() if isinstance(items, dict) else []:
+            walk(item)
+
+    walk(config["nav"])
+    written = [ROOT / "docs" / p for p in pages if (ROOT / "docs" / p).is_file()]
+    return [README, ROOT / "CONTRIBUTING.md", *written]
 
 
-def test_every_sofia_command_in_the_readme_parses() -> None:
-    sofia = [(n, argv) for n, argv in readme_commands() if argv[0] == "sofia"]
-    assert len(sofia) > 50, f"only {len(sofia)} sofia commands found in the README: is the parsing broken?"
-    wrong = [f"README.md:{n}: sofia {shlex.join(argv[1:])}: {e}" for n, argv in sofia
+def page_commands(page: Path) -> list[tuple[str, list[str]]]:
+    """(``page:line``, argv) of every command of ``page``."""
+    where = page.relative_to(ROOT).as_posix()
+    return [(f"{where}:{n}", argv) for n, line in fenced_lines(page.read_text()) for argv in commands(line)]
+
+
+def doc_commands() -> list[tuple[str, list[str]]]:
+    return [c for page in doc_pages() for c in page_commands(page)]
+
+
+def test_every_sofia_command_in_the_docs_parses() -> None:
+    sofia = [(n, argv) for n, argv in doc_commands() if argv[0] == "sofia"]
+    assert len(sofia) > 50, f"only {len(sofia)} sofia commands found in the docs: is the parsing broken?"
+    wrong = [f"{n}: sofia {shlex.join(argv[1:])}: {e}" for n, argv in sofia
              if (e := parse_error(argv[1:])) is not None]  # fmt: skip
     assert not wrong, "\n".join(wrong)
 
 
-def test_the_readme_adds_no_old_spelling_of_a_renamed_option() -> None:
-    found = {f"README.md:{n}: sofia {command} {option}" for n, argv in readme_commands() if argv[0] == "sofia"
+def test_the_docs_use_no_old_spelling_of_a_renamed_option() -> None:
+    found = {f"{n}: sofia {command} {option}" for n, argv in doc_commands() if argv[0] == "sofia"
              for command, option in old_spellings(argv[1:]) - KNOWN_OLD_SPELLINGS}  # fmt: skip
     assert not found, "use the new option names (see `sofia ... --help`):\n" + "\n".join(sorted(found))
 
 
-def test_make_targets_compose_profiles_scripts_and_test_paths_in_the_readme_exist() -> None:
+def test_make_targets_compose_profiles_scripts_and_test_paths_in_the_docs_exist() -> None:
     makefile = (ROOT / "Makefile").read_text()
     targets = set(re.findall(r"^([\w.-]+):", makefile, re.M))
     services = yaml.safe_load((ROOT / "compose.yaml").read_text())["services"]
     profiles = {p for s in services.values() for p in s.get("profiles", [])}
     wrong: list[str] = []
-    for n, argv in readme_commands():
+    for n, argv in doc_commands():
         if argv[0] == "make":
-            wrong += [f"README.md:{n}: make {t}: no such target" for t in argv[1:] if t not in targets]
+            wrong += [f"{n}: make {t}: no such target" for t in argv[1:] if t not in targets]
         elif argv[:2] == ["docker", "compose"]:
             named = [b for a, b in itertools.pairwise(argv) if a == "--profile"]
-            wrong += [f"README.md:{n}: compose has no profile {p}" for p in named if p not in profiles]
+            wrong += [f"{n}: compose has no profile {p}" for p in named if p not in profiles]
             if "logs" in argv:
-                wrong += [f"README.md:{n}: compose has no service {s}" for s in argv[argv.index("logs") + 1 :]
+                wrong += [f"{n}: compose has no service {s}" for s in argv[argv.index("logs") + 1 :]
                           if not s.startswith("-") and s not in services]  # fmt: skip
         elif argv[0].endswith("python") or argv[0] == "bash":
             for path in (a.split("::")[0] for a in argv[1:]):
                 if re.fullmatch(r"(bench|tests|scripts|\.ci)/[\w./-]+", path) and not (ROOT / path).exists():
-                    wrong.append(f"README.md:{n}: {path} does not exist")
+                    wrong.append(f"{n}: {path} does not exist")
     assert not wrong, "\n".join(wrong)
 
 

@@ -1,14 +1,15 @@
-"""Walking the README's commands that talk to running services, as written: `sofia up` (router,
-detector, calibrator and the emulated gripper of robot `panda`, as the README starts it) in the
+"""Walking the documented commands that talk to running services, as written: `sofia up` (router,
+detector, calibrator and the emulated gripper of robot `panda`, as the docs start it) in the
 folder of the offline walk, then every `sofia echo`, `query`, `health`, `gripper` and `replay play`
-line of the README in README order, with a recording looping onto the bus as "Using it" says.
+line of the README and the site's pages in their order, with a recording looping onto the bus as
+"Use the bus" says.
 
-A command that returns must exit 0, as the README's exit-code table says for a job that ran. One
+A command that returns must exit 0, as the exit-code table says for a job that ran. One
 that runs until stopped (`echo` without `--count`, `replay play --loop`, `up`) must still be running
 after a while, and exit 0 on Ctrl-C. `echo` must have printed a detection. Left out: the lines that
 name hardware (a serial port, a robot IP, a camera serial), the camera's keys and recordings (no
 camera here), and `gripper serve` (`sofia up` already serves the gripper); ``ON_THE_BUS`` of
-``test_readme_walk.py`` names the tests that run those.
+``test_docs_walk.py`` names the tests that run those.
 """
 
 from __future__ import annotations
@@ -26,7 +27,7 @@ from pathlib import Path
 from sofia_system.launcher import sofia_executable
 
 from .conftest import run_sofia
-from .test_readme_walk import sofia_commands
+from .test_docs_walk import sofia_commands
 
 WALKED = [("echo",), ("query",), ("health",), ("gripper",), ("replay", "play")]
 HARDWARE = {"--port", "--robot-ip", "--serial"}
@@ -36,7 +37,7 @@ FIRST_DETECTION_S = 60.0  # `echo` of the detections: the first one within this
 
 
 def walked(argv: list[str]) -> bool:
-    """True for the README commands this walk runs (see the module docstring)."""
+    """True for the documented commands this walk runs (see the module docstring)."""
     if not any(tuple(argv[: len(p)]) == p for p in WALKED) or argv[:2] == ["gripper", "serve"]:
         return False
     if HARDWARE & set(argv) or any("camera" in a for a in argv):
@@ -104,7 +105,7 @@ def wait_healthy(cwd: Path, service: str, timeout: float = 120.0) -> None:
         time.sleep(1.0)
 
 
-def test_the_readme_bus_commands_run_as_written_against_sofia_up(walk_dir: Path) -> None:
+def test_the_documented_bus_commands_run_as_written_against_sofia_up(walk_dir: Path) -> None:
     commands = [(n, a) for n, a in sofia_commands() if walked(a)]
     assert len(commands) >= 20, commands  # 27 when written
     for _, argv in sofia_commands():  # the files the walked commands read: cloud.cdr, recordings/*.mcap
@@ -124,7 +125,7 @@ def test_the_readme_bus_commands_run_as_written_against_sofia_up(walk_dir: Path)
         )  # as "Using it" says
         try:
             for n, argv in commands:
-                where = f"README.md:{n}: sofia {shlex.join(argv)}"
+                where = f"{n}: sofia {shlex.join(argv)}"
                 if runs_until_stopped(argv):
                     out = run_until_stopped(
                         walk_dir, env, argv, FIRST_DETECTION_S if argv[0] == "echo" else 0.0

@@ -30,7 +30,10 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     d.add_argument("files", nargs="+", type=Path, metavar="FILE", help=".mcap, .pcd, .ply or .npy")
     d.add_argument("--board", type=Path, help="board YAML/JSON (default: the package's board)")
     add_json_option(d, "one object per cloud and line")
-    d.add_argument("--plot", type=Path, metavar="OUT.png", help="draw the board from above")
+    d.add_argument(
+        "--plot", type=Path, metavar="OUT.png",
+        help="draw the board from above into OUT.png; several clouds: OUT-01.png, OUT-02.png, ... (one per cloud)",
+    )  # fmt: skip
     d.add_argument(
         "--transform", type=Path, metavar="FILE",
         help="T_flange_cam YAML/JSON: also detect in the camera-frame clouds of .mcap files",
@@ -125,7 +128,10 @@ def _record(path: Path, fc: FileCloud, det: Detection) -> dict[str, object]:
 
 
 def _plot_path(out: Path, n: int, total_hint: int) -> Path:
-    return out if total_hint == 1 and n == 0 else out.with_name(f"{out.stem}-{n}{out.suffix or '.png'}")
+    """``out`` for a single cloud; else ``OUT-01.png``, ``OUT-02.png``, ... numbered from 1 like the scenes."""
+    return (
+        out if total_hint == 1 and n == 0 else out.with_name(f"{out.stem}-{n + 1:02d}{out.suffix or '.png'}")
+    )
 
 
 def _detect_files(args: argparse.Namespace) -> int:
@@ -157,7 +163,7 @@ def _detect_all(args: argparse.Namespace) -> int:
 
                     out = _plot_path(args.plot, n_clouds, 1 if single else 2)
                     plot_detection(
-                        fc.points, board, det, out, title=f"{fc.source} [{fc.index}]: {det.status}"
+                        fc.points, board, det, out, title=f"{out.stem}: {path.name}, cloud {fc.index + 1}"
                     )
                     log.info("plot written to %s", out)
                 n_clouds += 1

@@ -1,6 +1,8 @@
-"""The board seen from above: fields (red ones marked), the points' height above the board (mean per
-3 mm cell, so the PNG stays small), each object's footprint, centre and centroid, numbered on the
-plot and described under it. Base frame x/y, metres."""
+"""The board seen from above: fields (red ones marked, rows and columns numbered outside the board),
+the points' height above the board (mean per 3 mm cell, so the PNG stays small; points beside the
+board, the table or clutter, are drawn too), each object's footprint, centre and centroid, numbered
+on the plot and described beside it with its confidence, the fingers of the grasp of each object
+that may be picked, and the direction of the robot base. Base frame x/y, metres."""
 
 from __future__ import annotations
 
@@ -11,10 +13,14 @@ import numpy as np
 from sofia_schemas import Board
 from sofia_schemas.messages import Detection
 
+from .pick import PickParams, pick_target, pickable
 from .plane import coords
 
 CELL_M = 0.003  # side of the height map's cells
 ALLOWED, NOT_ALLOWED = "#2ca02c", "#ff7f0e"  # footprint colours
+FINGERS = "#1f77b4"
+STATUS_TEXT = {"ok": "{n} object(s) on the board", "no_object": "board seen, no object on it",
+               "no_board": "no board found"}  # fmt: skip
 
 
 def _corners(center: np.ndarray, size: tuple[float, float], yaw: float) -> np.ndarray:
@@ -24,14 +30,43 @@ def _corners(center: np.ndarray, size: tuple[float, float], yaw: float) -> np.nd
     return center + half @ np.array([[c, s], [-s, c]])
 
 
-def _draw_field(
-    ax: Any, fc: np.ndarray, size: tuple[float, float], yaw: float, rc: tuple[int, int], red: bool
-) -> None:
+def _draw_field(ax: Any, fc: np.ndarray, size: tuple[float, float], yaw: float, red: bool) -> None:
     corners = _corners(fc, size, yaw)
     ax.fill(corners[:, 0], corners[:, 1], color="#d62728" if red else "white", alpha=0.35, zorder=2.5, lw=0)
     ax.plot(corners[:, 0], corners[:, 1], color="0.3", lw=0.6, zorder=2.6)
-    corner = 0.85 * corners[3] + 0.15 * corners[1]  # inside the field's top-left corner, clear of objects
-    ax.text(*corner, f"{rc[0]},{rc[1]}", color="0.2", fontsize=7, ha="center", va="center", zorder=2.6)
+
+
+def _label_rows_and_columns(ax: Any, board: Board, center: np.ndarray, R: np.ndarray) -> None:
+    """Row numbers beyond the board's -y edge, column numbers beyond its -x edge: clear of objects."""
+    fx, fy = board.field_size
+    centers = board.field_centers_board()
+    style = {"color": "0.2", "fontsize": 7, "ha": "center", "va": "center", "zorder": 2.6}
+    for r in range(board.rows):
+        ax.text(*(center + R @ (centers[r, 0] - [0.0, 0.8 * fy])), f"row {r}", **style)
+    for col in range(board.cols):
+        ax.text(*(center + R @ (centers[0, col] - [0.8 * fx, 0.0])), f"col {col}", **style)
+
+
+def _draw_fingers(ax: Any, detection: Detection) -> None:
+    """The grasp of each object that may be picked: the fingertips (opening apart, across the
+    object's width) and the axis they close along."""
+    for obj in pickable(detection, PickParams()):
+        target = pick_target(obj, 0)
+        y_axis = np.array([np.sin(target.yaw), -np.cos(target.yaw)])  # the flange y axis, base frame
+        tips = np.array(obj.center[:2]) + np.outer([-1.0, 1.0], y_axis) * target.opening_mm / 2e3
+        ax.plot(tips[:, 0], tips[:, 1], color=FINGERS, lw=1.2, ls="--", zorder=4.5)
+        ax.plot(tips[:, 0], tips[:, 1], "s", color=FINGERS, ms=5, zorder=4.5)
+
+
+def _mark_robot_base(ax: Any, center: np.ndarray, R: np.ndarray, extent: tuple[float, float]) -> None:
+    """An arrow just outside the board's edge pointing towards the robot base (the base frame's origin)."""
+    towards = -center / max(float(np.linalg.norm(center)), 1e-9)
+    in_board = np.abs(R.T @ towards)  # the direction in the board's frame
+    to_edge = min(e / 2 / max(d, 1e-9) for e, d in zip(extent, in_board, strict=True))
+    tail = center + towards * (to_edge + 0.012)
+    head = tail + towards * 0.05
+    ax.annotate("", xy=head, xytext=tail, zorder=5, arrowprops={"arrowstyle": "->", "color": "0.2"})
+    ax.text(head[0], head[1] - 0.012, "robot base", fontsize=7, color="0.2", ha="center", va="top", zorder=5)
 
 
 def _height_map(xyz: np.ndarray, surface: float, limits: tuple[float, float, float, float]) -> np.ndarray:
@@ -49,7 +84,8 @@ def _height_map(xyz: np.ndarray, surface: float, limits: tuple[float, float, flo
 def plot_detection(
     points: np.ndarray, board: Board, detection: Detection, out: str | Path, title: str = ""
 ) -> Path:
-    """Write a PNG of ``detection`` over ``points`` ((N, 3) or (H, W, 3), base frame) to ``out``."""
+    """Write a PNG of ``detection`` over ``points`` ((N, 3) or (H, W, 3), base frame) to ``out``;
+    ``title`` names the cloud, the plot adds what was found."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -69,7 +105,8 @@ def plot_detection(
     centers = board.field_centers_board()
     for r in range(board.rows):
         for col in range(board.cols):
-            _draw_field(ax, center + R @ centers[r, col], (fx, fy), yaw, (r, col), board.is_allowed(r, col))
+            _draw_field(ax, center + R @ centers[r, col], (fx, fy), yaw, board.is_allowed(r, col))
+    _label_rows_and_columns(ax, board, center, R)
     ex, ey = board.extent
     margin = 0.08
     (x0, x1), (y0, y1) = (
@@ -79,8 +116,8 @@ def plot_detection(
     if xyz.shape[1]:
         im = ax.imshow(_height_map(xyz, surface, (x0, x1, y0, y1)), extent=(x0, x1, y0, y1), origin="lower",
                        cmap="Greys", vmin=-0.02, vmax=0.12, zorder=2, interpolation="nearest")  # fmt: skip
-        fig.colorbar(im, ax=ax, label="height above the board (m)", orientation="horizontal", shrink=0.6,
-                     pad=0.08)  # fmt: skip
+        fig.colorbar(im, ax=ax, label="points seen: height above the board (m), beside the board too",
+                     orientation="horizontal", shrink=0.6, pad=0.08)  # fmt: skip
     lines = []
     for i, obj in enumerate(detection.objects, 1):
         corners = _corners(np.array(obj.center[:2]), (obj.extents[0], obj.extents[1]), obj.yaw)
@@ -89,12 +126,16 @@ def plot_detection(
         ax.plot(*obj.centroid[:2], "o", mfc="none", mec="m", ms=8, zorder=4)
         ax.annotate(str(i), obj.center[:2], xytext=(7, 7), textcoords="offset points", fontsize=8, zorder=5,
                     bbox={"boxstyle": "round,pad=0.15", "fc": "white", "ec": "none", "alpha": 0.8})  # fmt: skip
-        lines.append(f"{i}: {'allowed' if obj.allowed else 'NOT allowed'} field {obj.field}, centre "
-                     f"({obj.center[0]:.3f}, {obj.center[1]:.3f}, {obj.center[2]:.3f}) m")  # fmt: skip
+        where = "red field, to pick" if obj.allowed else "not a red field, not to pick"
+        lines.append(f"{i}: row {obj.field[0]}, col {obj.field[1]} ({where}), confidence {obj.confidence:.2f},\n"
+                     f"    centre ({obj.center[0]:.3f}, {obj.center[1]:.3f}, {obj.center[2]:.3f}) m")  # fmt: skip
+    _draw_fingers(ax, detection)
+    _mark_robot_base(ax, center, R, board.extent)
     ax.legend(handles=[
-        Patch(fc="#d62728", alpha=0.35, label="allowed (red) field"),
-        Line2D([], [], color=ALLOWED, lw=1.5, label="object on an allowed field"),
-        Line2D([], [], color=NOT_ALLOWED, lw=1.5, label="object NOT on an allowed field"),
+        Patch(fc="#d62728", alpha=0.35, label="red field: its objects are picked"),
+        Line2D([], [], color=ALLOWED, lw=1.5, label="object on a red field"),
+        Line2D([], [], color=NOT_ALLOWED, lw=1.5, label="object on another field (not picked)"),
+        Line2D([], [], color=FINGERS, marker="s", ms=5, ls="--", label="fingertips of the grasp"),
         Line2D([], [], marker="x", color="k", ls="none", ms=8, mew=2, label="centre"),
         Line2D([], [], marker="o", mfc="none", mec="m", ls="none", ms=7, label="centroid"),
         *(Line2D([], [], ls="none", label=line) for line in lines),
@@ -104,7 +145,8 @@ def plot_detection(
     ax.set_aspect("equal")
     ax.set_xlabel(f"x ({board.frame_id}, m)")
     ax.set_ylabel(f"y ({board.frame_id}, m)")
-    ax.set_title(title or f"{detection.status}: {len(detection.objects)} object(s)")
+    status = STATUS_TEXT.get(detection.status, detection.status).format(n=len(detection.objects))
+    ax.set_title(f"{title}: {status}" if title else status)
     out = Path(out)
     out.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(out, dpi=110, bbox_inches="tight")

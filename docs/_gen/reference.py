@@ -103,7 +103,9 @@ def cli_markdown(parser: argparse.ArgumentParser) -> str:
     for path, p, help_line in _parser_path(parser):
         depth = min(path.count(" "), 3)
         lines += [f"{'#' * (depth + 2) if depth else '##'} `{path}`", ""]
-        if help_line or p.description:
+        if p.description and "\n" in p.description:  # written as laid out (the root's command groups)
+            lines += ["```text", p.description, "```", ""]
+        elif help_line or p.description:
             lines += [_cell(p.description or help_line), ""]
         lines += ["```text", _usage(p), "```", ""]
         actions = visible_options(p)
@@ -112,7 +114,7 @@ def cli_markdown(parser: argparse.ArgumentParser) -> str:
             lines += [_option_row(a) for a in actions]
             lines.append("")
         if p.epilog:
-            lines += [_cell(p.epilog), ""]
+            lines += ["```text", p.epilog, "```", ""] if "\n" in p.epilog else [_cell(p.epilog), ""]
     return "\n".join(lines)
 
 

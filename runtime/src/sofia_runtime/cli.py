@@ -68,10 +68,43 @@ def _export(args: argparse.Namespace) -> int:
     return 0
 
 
+# `sofia --help` lists the commands in these groups, in this order; a command of a package not named
+# here is listed under "more".
+COMMAND_GROUPS = (
+    ("get started", ("demo", "up")),
+    ("your own data, no services needed", ("calibrate", "detect", "replay", "synth")),
+    ("the bus", ("echo", "query", "health", "router", "schemas")),
+    ("services and devices", ("detector", "calibrator", "camera", "arm", "gripper")),
+    ("ROS 2 and Foxglove", ("ros2", "viz")),
+)
+EXIT_CODES = """exit codes (every command):
+  0    success
+  1    the job ran and failed (an error reply or no reply, a failed check, an unhealthy service)
+  2    usage or input error (an unknown option, a bad value, a missing or unreadable file)
+  130  interrupted (Ctrl-C before the command got going)"""
+
+
+class RootHelpFormatter(argparse.RawDescriptionHelpFormatter, HelpFormatter):
+    """The root command's help: its grouped command list and exit-code table as written."""
+
+
+def _grouped_commands(sub: argparse._SubParsersAction) -> str:  # type: ignore[type-arg]
+    """The commands of ``sub`` with their one-line help, in ``COMMAND_GROUPS`` order."""
+    helps = {a.dest: a.help or "" for a in sub._choices_actions}
+    named = {c for _, cs in COMMAND_GROUPS for c in cs}
+    groups = [*COMMAND_GROUPS, ("more", tuple(sorted(c for c in helps if c not in named)))]
+    lines = ["commands:"]
+    for title, names in groups:
+        present = [n for n in names if n in helps]
+        if present:
+            lines.append(f"  {title}:")
+            lines += [f"    {n:<12}{helps[n]}" for n in present]
+    return "\n".join(lines)
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
-        prog="sofia", description="SofIA: calibrate, detect, grasp.",
-        epilog="exit codes: 0 success, 1 the job failed, 2 usage or input error",
+        prog="sofia", description="SofIA: calibrate, detect, grasp.", epilog=EXIT_CODES,
     )  # fmt: skip
     parser.add_argument("--version", action="version", version=f"sofia {sofia_version()}")
     parser.add_argument("--log-level", default="INFO", choices=("DEBUG", "INFO", "WARNING", "ERROR"),
@@ -84,6 +117,10 @@ def build_parser() -> argparse.ArgumentParser:
             log.debug("command %s unavailable: %s", ep.name, e)
     for p in iter_parsers(parser):
         p.formatter_class = HelpFormatter
+    parser.formatter_class = RootHelpFormatter
+    parser.usage = "%(prog)s [-h] [--version] [--log-level {DEBUG,INFO,WARNING,ERROR}] COMMAND ..."
+    parser.description = f"SofIA: calibrate, detect, grasp.\n\n{_grouped_commands(sub)}"
+    sub.help = argparse.SUPPRESS  # listed in the groups above instead
     return parser
 
 

@@ -127,7 +127,8 @@ def plot_detection(
         ax.annotate(str(i), obj.center[:2], xytext=(7, 7), textcoords="offset points", fontsize=8, zorder=5,
                     bbox={"boxstyle": "round,pad=0.15", "fc": "white", "ec": "none", "alpha": 0.8})  # fmt: skip
         where = "red field, to pick" if obj.allowed else "not a red field, not to pick"
-        lines.append(f"{i}: row {obj.field[0]}, col {obj.field[1]} ({where}), confidence {obj.confidence:.2f},\n"
+        field = f"row {obj.field[0]}, col {obj.field[1]}" if obj.field is not None else "off the board's grid"
+        lines.append(f"{i}: {field} ({where}), confidence {obj.confidence:.2f},\n"
                      f"    centre ({obj.center[0]:.3f}, {obj.center[1]:.3f}, {obj.center[2]:.3f}) m")  # fmt: skip
     _draw_fingers(ax, detection)
     _mark_robot_base(ax, center, R, board.extent)

@@ -19,11 +19,13 @@ import os
 import queue
 import shlex
 import signal
+import socket
 import subprocess
 import threading
 import time
 from pathlib import Path
 
+import pytest
 from sofia_system.launcher import sofia_executable
 
 from .conftest import run_sofia
@@ -92,7 +94,25 @@ def stop(proc: subprocess.Popen[str], what: str, log: Path | None = None) -> Non
         proc.wait(timeout=10)
         tail = log.read_text(errors="replace")[-2000:] if log is not None and log.exists() else ""
         raise AssertionError(f"{what}: still running 60 s after Ctrl-C; its log ends:\n{tail}") from None
-    assert proc.returncode == 0, f"{what}: exit {proc.returncode} on Ctrl-C"
+    tail = log.read_text(errors="replace")[-2000:] if log is not None and log.exists() else ""
+    assert proc.returncode == 0, f"{what}: exit {proc.returncode} on Ctrl-C; its log ends:\n{tail}"
+
+
+ROUTER_PORT = 7447  # `sofia up`'s router, as the docs start it
+
+
+def wait_port_free(port: int = ROUTER_PORT, timeout: float = 180.0) -> None:
+    """Wait until nothing listens on 127.0.0.1:``port`` (another walk's `sofia up` finishing): the
+    walk starts `sofia up` as the docs do, on its default port, and must talk to that one only."""
+    deadline = time.monotonic() + timeout
+    while True:
+        with socket.socket() as s:
+            if s.connect_ex(("127.0.0.1", port)) != 0:
+                return
+        assert time.monotonic() < deadline, (
+            f"127.0.0.1:{port} stays in use: another `sofia up` runs on this machine"
+        )
+        time.sleep(1.0)
 
 
 def wait_healthy(cwd: Path, service: str, timeout: float = 120.0) -> None:
@@ -105,6 +125,7 @@ def wait_healthy(cwd: Path, service: str, timeout: float = 120.0) -> None:
         time.sleep(1.0)
 
 
+@pytest.mark.timeout(900)  # 27 commands, several of which run for seconds, on a shared machine
 def test_the_documented_bus_commands_run_as_written_against_sofia_up(walk_dir: Path) -> None:
     commands = [(n, a) for n, a in sofia_commands() if walked(a)]
     assert len(commands) >= 20, commands  # 27 when written
@@ -114,6 +135,7 @@ def test_the_documented_bus_commands_run_as_written_against_sofia_up(walk_dir: P
             assert r.returncode == 0, f"sofia {shlex.join(argv)}: {r.stderr[-400:]}"
     # robot panda and the default bus, as a user's shell has them; output unbuffered through the pipes
     env = {k: v for k, v in os.environ.items() if not k.startswith("SOFIA_")} | {"PYTHONUNBUFFERED": "1"}
+    wait_port_free()
     up = start(walk_dir, env, "up", log=walk_dir / "up.out")
     failed: list[str] = []
     try:

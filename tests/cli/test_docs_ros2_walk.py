@@ -19,14 +19,14 @@ import threading
 from pathlib import Path
 from typing import Any
 
+import pytest
 from sofia_schemas.ros2.typesupport import MSGS_DIR
 
-from .test_docs_bus_walk import start, stop, wait_healthy
+from .test_docs_bus_walk import ROUTER_PORT, start, stop, wait_healthy, wait_port_free
 from .test_docs_commands import ROOT, page_commands
 
 PAGE = ROOT / "docs" / "how-to" / "ros2.md"
 PEER = ROOT / "tests" / "ros2" / "peer.py"
-ROUTER_PORT = 7447  # `sofia up`'s router; rmw_zenoh's default endpoint is tcp/localhost:7447
 FIRST_DETECTION_S = 90.0
 
 
@@ -70,8 +70,10 @@ def next_line(lines: queue.Queue[dict[str, Any]], key: str, timeout: float, log:
         ) from None
 
 
+@pytest.mark.timeout(600)
 def test_a_ros2_node_sees_the_detections_by_following_the_page(walk_dir: Path) -> None:
     up_argv, replay_argv = steps()
+    wait_port_free()  # rmw_zenoh's default endpoint, tcp/localhost:7447, must be this `sofia up`'s router
     env = {k: v for k, v in os.environ.items() if not k.startswith("SOFIA_")} | {"PYTHONUNBUFFERED": "1"}
     up = start(walk_dir, env, *up_argv, log=walk_dir / "up-ros2.out")
     try:

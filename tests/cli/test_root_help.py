@@ -6,6 +6,7 @@ from __future__ import annotations
 import argparse
 import re
 import subprocess
+from pathlib import Path
 
 from sofia_runtime import cli
 from sofia_system.launcher import sofia_executable
@@ -39,3 +40,11 @@ def test_a_command_of_another_package_is_listed_under_more() -> None:
     sub.add_parser("weld", help="a package's own command")
     text = cli._grouped_commands(sub)
     assert text.index("your own data") < text.index("detect") < text.index("  more:") < text.index("weld")
+
+
+def test_an_input_error_names_the_whole_command_as_a_usage_error_does(tmp_path: Path) -> None:
+    missing = tmp_path / "nope.mcap"
+    for argv in (["replay", "info", str(missing)], ["replay", "info", "--no-such-option"]):
+        r = subprocess.run([*sofia_executable(), *argv], capture_output=True, text=True, timeout=120)
+        assert r.returncode == 2, r.stderr
+        assert r.stderr.strip().splitlines()[-1].startswith("sofia replay info: error: "), r.stderr

@@ -117,6 +117,7 @@ def build_parser() -> argparse.ArgumentParser:
             log.debug("command %s unavailable: %s", ep.name, e)
     for p in iter_parsers(parser):
         p.formatter_class = HelpFormatter
+        p.set_defaults(error_prefix=p.prog)  # the deepest command's wins: `sofia replay play`
     parser.formatter_class = RootHelpFormatter
     parser.usage = "%(prog)s [-h] [--version] [--log-level {DEBUG,INFO,WARNING,ERROR}] COMMAND ..."
     parser.description = f"SofIA: calibrate, detect, grasp.\n\n{_grouped_commands(sub)}"
@@ -160,7 +161,7 @@ def main(argv: list[str] | None = None) -> int:
         sys.stdout = open(os.devnull, "w")  # silences the flush at exit
         return EXIT_OK
     except (ValueError, OSError) as e:  # bad input: a file, a value (see the exit codes above)
-        print(f"sofia {args.command}: error: {_error_text(e)}", file=sys.stderr)
+        print(f"{args.error_prefix}: error: {_error_text(e)}", file=sys.stderr)  # as argparse's own
         return EXIT_USAGE
 
 

@@ -93,7 +93,7 @@ class Service:
                       "dropped_blobs": dropped["blob"] + self.cal.dropped,
                       "dropped_poses": dropped["pose"], "dropped_clouds": dropped["cloud"],
                       "dropped_queries": self.inbox.busy, "refused_samples": self.cal.refused,
-                      **store.counters()},
+                      **store.counters(), **self.cal.stamps.counters},
             info={"samples_consistent": not store.suspect(),
                   "sample_log": str(store.path)},
         )  # fmt: skip
@@ -210,7 +210,9 @@ class Service:
         elif op == "samples":
             self.samples_reply(query)
         elif op == "add":
-            s = store.add(CalibrationSample.model_validate_json(payload))
+            sample = CalibrationSample.model_validate_json(payload)
+            self.cal.stamps.check("sample", sample.stamp_ns)
+            s = store.add(sample)
             log.info("sample %d added by query", s.sample_id)
             reply_json(query, CalibrationSamples(samples=[s]))
         elif op == "remove":

@@ -17,6 +17,11 @@ from sofia_schemas.messages import now_ns
 FUTURE_TOLERANCE_NS = 2_000_000_000  # 2 s: hosts kept by NTP/PTP agree far better; more is a bad clock
 
 
+def _seconds(delta_ns: int) -> str:
+    """``delta_ns`` in seconds, 4 significant digits; any integer (10**400 included)."""
+    return f"{delta_ns / 1e9:.4g}" if abs(delta_ns) < 10**300 else f"about 10**{len(str(abs(delta_ns))) - 10}"
+
+
 def _shown(stamp_ns: int) -> str:
     text = str(stamp_ns)
     return text if len(text) <= 24 else f"{text[:12]}... ({len(text)} digits)"
@@ -49,17 +54,16 @@ class StampCheck:
         """``stamp_ns`` if accepted; raises :class:`StampRefused` (and counts it) otherwise."""
         now = self.clock()
         if stamp_ns > now + self.future_tolerance_ns:
-            ahead_s = (stamp_ns - now) / 1e9
             self._count("future_stamps")
             raise StampRefused(
                 what,
                 stamp_ns,
-                f"{ahead_s:.4g} s in the future (tolerance {self.future_tolerance_ns / 1e9:g} s)",
+                f"{_seconds(stamp_ns - now)} s in the future (tolerance {self.future_tolerance_ns / 1e9:g} s)",
             )
         if since_start and stamp_ns < self.start_ns:
             self._count("stamps_before_start")
             raise StampRefused(
-                what, stamp_ns, f"{(self.start_ns - stamp_ns) / 1e9:.4g} s before this service started"
+                what, stamp_ns, f"{_seconds(self.start_ns - stamp_ns)} s before this service started"
             )
         return stamp_ns
 

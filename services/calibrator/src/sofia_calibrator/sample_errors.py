@@ -32,3 +32,8 @@ class UnknownSamples(CalibrationError):  # noqa: N818 - named as in STYLE.md
 class CalibratorBusy(CalibrationError):  # noqa: N818 - named as in STYLE.md
     def __init__(self, waiting: int) -> None:
         super().__init__(f"busy, retry: {waiting} queries are already waiting for the calibrator")
+
+
+class SaveFailed(CalibrationError):  # noqa: N818 - named as in STYLE.md
+    def __init__(self, path: object, reason: str) -> None:
+        super().__init__(f"save failed writing {path}: {reason} (that file keeps its previous content)")

@@ -37,12 +37,14 @@ from sofia_schemas.messages.calibration import (
     CalibrationSolveOptions,
 )
 
+from .durable import write_atomic
 from .errors import InputMismatch
 from .formats import to_yaml
 from .inbox import Inbox
 from .online import Calibrator
 from .pairing import PairingOptions
-from .sample_errors import CalibratorBusy
+from .sample_checks import check_sample
+from .sample_errors import CalibratorBusy, SaveFailed
 from .store import SampleStore
 
 log = logging.getLogger("sofia.calibrator")
@@ -211,6 +213,7 @@ class Service:
             self.samples_reply(query)
         elif op == "add":
             sample = CalibrationSample.model_validate_json(payload)
+            check_sample(sample.model_copy(update={"sample_id": None}))  # named first: impossible values
             self.cal.stamps.check("sample", sample.stamp_ns)
             s = store.add(sample)
             log.info("sample %d added by query", s.sample_id)
@@ -235,11 +238,16 @@ class Service:
             if self.cal.result is None:
                 raise InputMismatch("nothing to save: no result yet")
             yaml_path = Path(store.dir) / "T_flange_cam.yaml"
-            yaml_path.write_text(to_yaml(self.cal.result))
             launch = Path(store.dir) / "camera_static_transform.launch"
-            launch.write_text(f"<launch>\n  {self.cal.result.ros1_static_transform}\n</launch>\n")
             ros2 = Path(store.dir) / "camera_static_transform_ros2.sh"
-            ros2.write_text(f"#!/bin/sh\n{self.cal.result.ros2_static_transform}\n")
+            try:  # each file whole, old or new: never half written
+                write_atomic(yaml_path, to_yaml(self.cal.result).encode())
+                write_atomic(
+                    launch, f"<launch>\n  {self.cal.result.ros1_static_transform}\n</launch>\n".encode()
+                )
+                write_atomic(ros2, f"#!/bin/sh\n{self.cal.result.ros2_static_transform}\n".encode(), 0o755)
+            except OSError as e:
+                raise SaveFailed(e.filename or store.dir, e.strerror or str(e)) from None
             reply_json(query, CalibrationFiles(files=[str(yaml_path), str(launch), str(ros2)]))
 
 

@@ -25,7 +25,7 @@ from sofia_schemas.transforms import make_transform
 from .durable import write_atomic
 from .sample_checks import check_sample
 from .sample_db import SampleDb
-from .sample_errors import ImplausibleSample, SampleLogError, UnknownSamples
+from .sample_errors import ImplausibleSample, SampleLogError, TooManySamples, UnknownSamples
 from .sample_import import JsonlLog, short
 from .sample_log import Damaged
 
@@ -35,6 +35,7 @@ LOG_NAME = "samples.jsonl"  # the log of older versions, imported once
 IMPORTED_SUFFIX = ".imported"
 IDS_NAME = "samples.db.ids"  # ids below this number may have been given: survives the database's loss
 IDS_BLOCK = 1000  # ids reserved at a time (one small atomic write per block)
+MAX_SAMPLES = 2000  # default bound: a solve of 2,000 samples takes about a second; a lab run uses ~100
 
 
 class SampleStore:
@@ -43,7 +44,11 @@ class SampleStore:
     ``generation`` grows with every change, so a result can be matched to the samples it used.
     """
 
-    def __init__(self, state_dir: str | Path) -> None:
+    def __init__(self, state_dir: str | Path, max_samples: int = MAX_SAMPLES) -> None:
+        if max_samples < 1:
+            raise ValueError(f"max_samples must be >= 1, got {max_samples}")
+        self.max_samples = max_samples
+        self.refused_full = 0  # adds refused at the maximum
         self.dir = Path(state_dir)
         self.path = self.dir / DB_NAME
         self.samples: dict[int, CalibrationSample] = {}
@@ -163,8 +168,12 @@ class SampleStore:
         self.write_failure = ""
 
     def add(self, sample: CalibrationSample) -> CalibrationSample:
-        """Store ``sample`` under a new id once its transaction committed; refuse an implausible one."""
+        """Store ``sample`` under a new id once its transaction committed; refuse an implausible one,
+        and any beyond ``max_samples`` (:class:`TooManySamples`)."""
         check_sample(sample.model_copy(update={"sample_id": None}))
+        if len(self.samples) >= self.max_samples:
+            self.refused_full += 1
+            raise TooManySamples(self.max_samples)
         added: list[CalibrationSample] = []
 
         def body(new_id: int) -> str:
@@ -218,10 +227,16 @@ class SampleStore:
     def counters(self) -> dict[str, int]:
         return {"damaged_lines": len(self.damaged), "unchecked_lines": self.unchecked,
                 "torn_bytes": self.torn_bytes, "write_errors": self.write_errors,
-                "damaged_rows": self.damaged_rows, "corrupt_db": int(bool(self.db.opened.corrupt))}  # fmt: skip
+                "damaged_rows": self.damaged_rows, "corrupt_db": int(bool(self.db.opened.corrupt)),
+                "refused_full": self.refused_full}  # fmt: skip
 
     def ordered(self) -> list[CalibrationSample]:
         return [self.samples[k] for k in sorted(self.samples)]
+
+    def page(self, after_id: int = -1, limit: int = MAX_SAMPLES) -> list[CalibrationSample]:
+        """At most ``limit`` samples with ids above ``after_id``, in id order."""
+        ids = sorted(i for i in self.samples if i > after_id)[:limit]
+        return [self.samples[i] for i in ids]
 
     def arrays(self) -> tuple[np.ndarray, np.ndarray, list[int]]:
         """(p_cam (n, 3), T_base_flange (n, 4, 4), sample ids) in id order."""

@@ -115,6 +115,7 @@ def main() -> int:
             assert ids is not None, log.read_text()[-2000:]
             rss_start.append(rss_bytes(proc.pid))
             lost = (acked - removed - in_flight) - ids
+            in_flight = set()
             back = ids & removed
             lost_total += len(lost)
             resurrected_total += len(back)
@@ -122,17 +123,16 @@ def main() -> int:
             killer = threading.Timer(rng.uniform(0.3, 1.5), proc.send_signal, (signal.SIGKILL,))
             killer.start()  # the kill comes in the middle of whatever the service is doing
             k = 0
-            in_flight = set()
             while proc.poll() is None:
                 tried += 1
                 if k % 3 == 2 and acked - removed:
                     victim = max(acked - removed)
                     in_flight = {victim}  # a remove cut by the kill may have committed
                     if ask("remove", json.dumps({"sample_ids": [victim]}).encode(), 2.0) is None:
-                        refused += 1
+                        refused += 1  # no reply: cut by the kill, it may have committed
                     else:
                         removed.add(victim)
-                    in_flight = set()
+                        in_flight = set()
                 else:
                     s = make_sample(T0_NS + k, pr.p_cam[k % 50], pr.T_base_flange[k % 50])
                     body = ask("add", s.to_json_bytes(), 2.0)

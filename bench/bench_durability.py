@@ -164,8 +164,12 @@ def main() -> int:
             db.write_bytes(bytes(data))
             proc = start(state, env, log)
             after_ids = stored()
-            replies = list(session.get(keys.status("calibrator"), timeout=5))
-            status = json.loads(replies[0].ok.payload.to_bytes()) if replies and replies[0].ok else {}
+            status: dict = {}  # type: ignore[type-arg]
+            for _ in range(6):  # a loaded host: the first status query may find no reply in 5 s
+                replies = list(session.get(keys.status("calibrator"), timeout=5))
+                if replies and replies[0].ok is not None:
+                    status = json.loads(replies[0].ok.payload.to_bytes())
+                    break
             damage.append((kind, after_ids is not None, status.get("state"), len(after_ids or ()),
                            status.get("detail", "")[:90]))  # fmt: skip
             proc.terminate()

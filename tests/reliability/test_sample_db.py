@@ -70,9 +70,11 @@ def test_sigkill_during_transactions_loses_and_resurrects_nothing(tmp_path: Path
         writer = subprocess.Popen([sys.executable, "-c", WRITER, str(tmp_path), str(cycle)],
                                   stdout=subprocess.PIPE, text=True)  # fmt: skip
         assert writer.stdout is not None and writer.stdout.readline() == "ready\n"
+        first = writer.stdout.readline()  # at least one acknowledged add per cycle, however loaded the host
         time.sleep(rng.uniform(0.05, 0.4))
         os.kill(writer.pid, signal.SIGKILL)
         out, _ = writer.communicate(timeout=30)
+        out = first + out
         in_flight_remove: set[int] = set()  # a remove after the last acknowledged add may have committed
         for line in out.splitlines():
             op, sample_id = line.split()
@@ -89,7 +91,7 @@ def test_sigkill_during_transactions_loses_and_resurrects_nothing(tmp_path: Path
         assert all(i > highest for i in new), (cycle, new)  # but an id is never given twice
         highest, seen = max([highest, *stored, *acked]), seen | stored
         store.close()
-    assert len(acked) > 30, f"only {len(acked)} acknowledged adds in 10 cycles"
+    assert len(acked) >= 10, f"only {len(acked)} acknowledged adds in 10 cycles"
 
 
 def _damaged_store(tmp_path: Path, damage: str) -> tuple[list[CalibrationSample], SampleStore]:

@@ -4,6 +4,7 @@ kill and a restart that resumes from the append-only log."""
 from __future__ import annotations
 
 import json
+import sqlite3
 import threading
 import time
 from collections.abc import Callable
@@ -128,8 +129,8 @@ def test_service_online_queries_errors_and_restart(
 
     # a crash loses nothing: the restarted calibrator resumes and publishes the same result
     proc.kill()
-    log_lines = (state / "samples.jsonl").read_text().splitlines()
-    assert len(log_lines) == 10  # 8 + add + remove
+    with sqlite3.connect(state / "samples.db") as db:  # 8 + add - remove, committed
+        assert db.execute("SELECT COUNT(*) FROM samples").fetchone()[0] == 8
     with lock:
         results.clear()
     frames = ("--parent-frame", "tool_flange", "--child-frame", "d435_color_optical_frame")

@@ -20,7 +20,7 @@ import zenoh
 from ..conftest import SOFIA
 
 REPO = Path(__file__).resolve().parents[2]
-USERS = ("calibrator", "detector", "gripper", "camera", "replay", "arm", "operator", "sofia")
+USERS = ("calibrator", "detector", "gripper", "camera", "replay", "arm", "operator", "sofia", "viz", "ros2")
 
 
 def free_port() -> int:

@@ -1,7 +1,8 @@
-"""The calibrator's sample log (``samples.jsonl``) under damage: torn tails, damaged lines of every
-kind, checksums, old logs without them, refused and failed writes, atomic removes, impossible
-samples. The store is the library the service runs; ``test_calibrator_service.py`` checks the same
-through the running service."""
+"""The import of an older version's sample log (``samples.jsonl``) under damage: torn tails,
+damaged lines of every kind, checksums, old logs without them; and the sample database's refused
+and failed writes, atomic removes, impossible samples. The store is the library the service runs;
+``test_calibrator_service.py`` checks the same through the running service, ``test_sample_db.py``
+the database itself under damage and kills."""
 
 from __future__ import annotations
 
@@ -16,6 +17,7 @@ import numpy as np
 import pytest
 from sofia_calibrator.online import make_sample
 from sofia_calibrator.sample_errors import ImplausibleSample, SampleLogError, UnknownSamples
+from sofia_calibrator.sample_log import encode
 from sofia_calibrator.simulate import make_problem
 from sofia_calibrator.store import SampleStore
 from sofia_schemas.messages.calibration import CalibrationSample
@@ -36,30 +38,46 @@ def store_with(state: Path, n: int) -> SampleStore:
     return store
 
 
+def add_line(k: int, s: CalibrationSample) -> bytes:
+    """The log line of an older version for sample ``s`` added as id ``k``."""
+    return encode({"op": "add", "sample": s.model_dump(mode="json") | {"sample_id": k}})
+
+
+def write_jsonl(state: Path, n: int) -> bytes:
+    """An older version's log of ``n`` samples (ids 0..n-1); its bytes."""
+    data = b"".join(add_line(k, s) for k, s in enumerate(samples(n)))
+    state.mkdir(parents=True, exist_ok=True)
+    (state / "samples.jsonl").write_bytes(data)
+    return data
+
+
 def old_line(entry: dict[str, object]) -> bytes:
     """A line as logs were written before checksums."""
     return json.dumps(entry).encode() + b"\n"
 
 
 def test_torn_tail_is_cut_and_kept_before_the_next_append(tmp_path: Path) -> None:
-    store_with(tmp_path, 3).close()
+    data = write_jsonl(tmp_path, 3)
     log_path = tmp_path / "samples.jsonl"
-    data = log_path.read_bytes()
     log_path.write_bytes(data[:-60])  # a crash in the middle of the last record
     store = SampleStore(tmp_path)
     assert sorted(store.samples) == [0, 1] and store.torn_bytes == len(data.splitlines()[-1]) + 1 - 60
     torn = (tmp_path / "samples.jsonl.torn").read_bytes()
     assert data[:-60][data[:-60].rfind(b"\n") + 1 :] in torn  # the cut bytes are kept
+    assert not log_path.exists() and (tmp_path / "samples.jsonl.imported").is_file()
     new = [store.add(s) for s in samples(2, seed=4)]
     store.close()
-    again = SampleStore(tmp_path)  # the sample acknowledged after the cut is not eaten
-    assert sorted(again.samples) == [0, 1, *(s.sample_id for s in new)]
+    again = SampleStore(tmp_path)  # the samples acknowledged after the import are kept, none twice
+    assert sorted(again.samples) == [0, 1, *(s.sample_id for s in new)] and [s.sample_id for s in new] == [
+        2,
+        3,
+    ]
     assert again.damaged == [] and again.torn_bytes == 0 and again.problems() == []
     again.close()
 
 
 def test_garbage_without_newline_is_cut_too(tmp_path: Path) -> None:
-    store_with(tmp_path, 2).close()
+    write_jsonl(tmp_path, 2)
     with (tmp_path / "samples.jsonl").open("ab") as f:
         f.write(b"\x00\x00garbage")
     store = SampleStore(tmp_path)
@@ -105,11 +123,10 @@ def test_every_kind_of_damaged_line_is_skipped_kept_counted_and_named(
 
 
 def test_damaged_remove_is_detected_by_its_checksum(tmp_path: Path) -> None:
-    store = store_with(tmp_path, 4)
-    store.remove([1])
-    store.add(samples(1, seed=7)[0])
-    store.close()
+    write_jsonl(tmp_path, 4)
     log_path = tmp_path / "samples.jsonl"
+    with log_path.open("ab") as f:
+        f.write(encode({"op": "remove", "sample_ids": [1]}) + add_line(4, samples(1, seed=7)[0]))
     lines = log_path.read_bytes().splitlines(keepends=True)
     assert b'"op":"remove","sample_ids":[1]' in lines[4]
     lines[4] = lines[4].replace(b"[1]", b"[2]")  # still valid JSON: only the checksum sees it
@@ -118,8 +135,26 @@ def test_damaged_remove_is_detected_by_its_checksum(tmp_path: Path) -> None:
     assert sorted(store.samples) == [0, 1, 2, 3, 4] and len(store.damaged) == 1
     assert "checksum mismatch" in store.damaged[0].reason
     assert any("samples may be inconsistent" in p and "samples.jsonl:5" in p for p in store.problems())
-    store.reset()  # the operator starts over: nothing before the reset matters
-    assert store.problems() == []
+    store.close()
+    again = SampleStore(tmp_path)  # what the import found stays in the status across restarts ...
+    assert any("samples may be inconsistent" in p for p in again.problems()) and again.suspect()
+    again.reset()  # ... until the operator starts over: nothing before the reset matters
+    assert again.problems() == [] and not again.suspect()
+    again.close()
+
+
+def test_damaged_last_add_keeps_its_id(tmp_path: Path) -> None:
+    """An acknowledged add whose line was damaged later: its id is not given to the next sample, so a
+    remove of the old id cannot delete the new one."""
+    data = write_jsonl(tmp_path, 4)
+    lines = data.splitlines(keepends=True)
+    lines[3] = lines[3].replace(b'"confidence":1.0', b'"confidence":0.5')  # only the checksum sees it
+    (tmp_path / "samples.jsonl").write_bytes(b"".join(lines))
+    store = SampleStore(tmp_path)
+    assert sorted(store.samples) == [0, 1, 2] and "checksum mismatch" in store.damaged[0].reason
+    assert store.add(samples(1, seed=13)[0]).sample_id == 4
+    with pytest.raises(UnknownSamples):
+        store.remove([3])
     store.close()
 
 
@@ -131,19 +166,17 @@ def test_old_log_without_checksums_is_read_unchecked(tmp_path: Path) -> None:
     assert sorted(store.samples) == [0, 2] and store.unchecked == 4 and store.damaged == []
     store.add(samples(1, seed=8)[0])
     store.close()
-    tail = (tmp_path / "samples.jsonl").read_bytes().splitlines()[-1]
-    assert tail.startswith(b'{"crc32":"')  # new records carry a checksum
-    again = SampleStore(tmp_path)
-    assert sorted(again.samples) == [0, 2, 3] and again.unchecked == 4 and again.problems() == []
+    again = SampleStore(tmp_path)  # imported once: the database holds them from now on
+    assert sorted(again.samples) == [0, 2, 3] and again.unchecked == 0 and again.problems() == []
     again.close()
 
 
 def test_remove_is_atomic_and_names_the_missing_ids(tmp_path: Path) -> None:
     store = store_with(tmp_path, 3)
-    before = (tmp_path / "samples.jsonl").read_bytes()
+    before = store.db.rows()
     with pytest.raises(UnknownSamples, match=r"no sample with id 999999, 7: nothing removed"):
         store.remove([0, 999999, 7])
-    assert sorted(store.samples) == [0, 1, 2] and (tmp_path / "samples.jsonl").read_bytes() == before
+    assert sorted(store.samples) == [0, 1, 2] and store.db.rows() == before
     store.remove([0, 2])
     store.close()
     assert sorted(SampleStore(tmp_path).samples) == [1]
@@ -163,19 +196,20 @@ IMPOSSIBLE: dict[str, tuple[dict[str, object], str]] = {
 @pytest.mark.parametrize("case", IMPOSSIBLE)
 def test_impossible_sample_is_refused_with_the_reason_and_never_written(tmp_path: Path, case: str) -> None:
     store = store_with(tmp_path, 1)
-    before = (tmp_path / "samples.jsonl").read_bytes()
+    before = store.db.rows()
     change, reason = IMPOSSIBLE[case]
     with pytest.raises(ImplausibleSample, match="new sample refused") as e:
         store.add(samples(1, seed=9)[0].model_copy(update=change))
     assert reason in str(e.value)
-    assert (tmp_path / "samples.jsonl").read_bytes() == before and sorted(store.samples) == [0]
+    assert store.db.rows() == before and sorted(store.samples) == [0] and store.next_id == 1
     store.close()
 
 
 def test_failed_write_refuses_and_leaves_nothing_to_be_written_later(tmp_path: Path) -> None:
-    """A real partial write: the file size limit (as a full disk) stops the line in its middle."""
+    """A real partial write: the file size limit (as a full disk) stops the transaction's write to
+    the WAL in its middle; the failure shows in ``problems`` until a write succeeds."""
     store_with(tmp_path, 2).close()
-    size = (tmp_path / "samples.jsonl").stat().st_size
+    size = 2000  # less than one WAL frame (a 4 kB page): the next transaction cannot be written
     script = textwrap.dedent(f"""
         import resource
         import numpy as np
@@ -191,21 +225,25 @@ def test_failed_write_refuses_and_leaves_nothing_to_be_written_later(tmp_path: P
             store.add(make_sample(1, pr.p_cam[0], pr.T_base_flange[0]))
         except SampleLogError as e:
             print("refused:", e)
+        print("problems:", store.problems(), store.counters()["write_errors"])
         resource.setrlimit(resource.RLIMIT_FSIZE, (hard, hard))
         pr = make_problem(1, np.random.default_rng(11))
         print("added", store.add(make_sample(1, pr.p_cam[0], pr.T_base_flange[0])).sample_id)
+        print("then problems:", store.problems())
         store.close()
     """)
     out = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=60)
-    assert "refused:" in out.stdout and "samples.jsonl: write failed, nothing written" in out.stdout, out
-    assert "added 2" in out.stdout, out
+    assert "refused:" in out.stdout and "samples.db: add failed, nothing written" in out.stdout, out
+    assert "problems: ['sample store not writable:" in out.stdout and "] 1" in out.stdout, out
+    assert "added 2" in out.stdout and "then problems: []" in out.stdout, out
     store = SampleStore(tmp_path)  # the refused sample is absent, the acknowledged one is there
-    assert sorted(store.samples) == [0, 1, 2] and store.damaged == [] and store.torn_bytes == 0
+    assert sorted(store.samples) == [0, 1, 2] and store.problems() == [] and store.damaged_rows == 0
     assert store.samples[2].p_cam == samples(1, seed=11)[0].p_cam
     store.close()
 
 
-def test_unopenable_log_is_named(tmp_path: Path) -> None:
-    (tmp_path / "samples.jsonl").mkdir()
-    with pytest.raises(SampleLogError, match=str(tmp_path / "samples.jsonl")):
+def test_unopenable_database_is_named_not_moved(tmp_path: Path) -> None:
+    (tmp_path / "samples.db").mkdir()
+    with pytest.raises(SampleLogError, match=f"{tmp_path / 'samples.db'}: cannot open the sample database"):
         SampleStore(tmp_path)
+    assert (tmp_path / "samples.db").is_dir() and len(list(tmp_path.iterdir())) == 1

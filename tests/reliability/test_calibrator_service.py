@@ -1,5 +1,6 @@
-"""``sofia calibrator serve`` as a separate process over Zenoh, under a damaged sample log, refused
-and failed operations, a blob flood with queries, and bursts of samples."""
+"""``sofia calibrator serve`` as a separate process over Zenoh, importing a damaged sample log of an
+older version, under refused and failed operations, a blob flood with queries, and bursts of
+samples."""
 
 from __future__ import annotations
 
@@ -14,7 +15,6 @@ import zenoh
 from sofia_calibrator.online import make_sample
 from sofia_calibrator.sample_log import encode
 from sofia_calibrator.simulate import make_problem
-from sofia_calibrator.store import SampleStore
 from sofia_runtime import client
 from sofia_runtime.zenoh_config import open_session
 from sofia_schemas.keys import Keys
@@ -63,13 +63,13 @@ def test_damaged_log_loads_the_rest_reports_it_and_keeps_new_samples(
     sofia_proc, session, robot_id, tmp_path
 ) -> None:  # type: ignore[no-untyped-def]
     keys, state = Keys(robot_id), tmp_path / "state"
-    store = SampleStore(state)
-    for s in samples(6):
-        store.add(s)
-    store.remove([1])
-    store.add(samples(1, seed=4)[0])  # sample 6
-    store.close()
+    write_log(state, 6)
     log_path = state / "samples.jsonl"
+    with log_path.open("ab") as f:  # remove 1, add 6
+        f.write(encode({"op": "remove", "sample_ids": [1]}))
+        f.write(
+            encode({"op": "add", "sample": samples(1, seed=4)[0].model_dump(mode="json") | {"sample_id": 6}})
+        )
     lines = log_path.read_bytes().splitlines(keepends=True)
     lines[6] = lines[6].replace(b"[1]", b"[2]")  # the remove: damaged, still valid JSON
     lines.insert(3, b'{"op": "add", "sample": {"p_cam": [0.1, \xff]}}\n')  # not UTF-8, no sample_id
@@ -83,31 +83,36 @@ def test_damaged_log_loads_the_rest_reports_it_and_keeps_new_samples(
     assert status["info"]["samples_consistent"] is False
     assert "samples.jsonl:4 skipped" in proc.log() and "samples.jsonl:8 skipped" in proc.log()
     assert (state / "samples.jsonl.torn").is_file() and (state / "samples.jsonl.damaged").is_file()
+    assert (state / "samples.jsonl.imported").is_file() and (state / "samples.db").is_file()
 
     acked = [add(session, keys, s) for s in samples(9)[7:]]
     assert all(ok for ok, _ in acked), acked
     proc.kill()
     proc2 = start(sofia_proc, session, keys, state)
     assert ids(session, keys) == [0, 1, 2, 3, 4, 5, *(b["samples"][0]["sample_id"] for _, b in acked)]
+    assert [b["samples"][0]["sample_id"] for _, b in acked] == [6, 7]  # 6 was torn: never acknowledged
+    ok, status = query_json(session, keys.status("calibrator"))  # the import's findings survive restarts
+    assert ok and status["info"]["samples_consistent"] is False and status["state"] == "degraded"
     ok, body = query_json(session, keys.calibrator_op("reset"))  # the operator starts over
     assert ok and body["samples"] == []
     ok, status = query_json(session, keys.status("calibrator"))
     assert ok and status["info"]["samples_consistent"] is True and status["counters"]["torn_bytes"] == 0
+    assert status["state"] == "ok", status
     assert proc2.stop() == 0
 
 
-def test_unopenable_log_stops_the_start_naming_the_file(sofia_proc, robot_id, tmp_path) -> None:  # type: ignore[no-untyped-def]
-    (tmp_path / "state" / "samples.jsonl").mkdir(parents=True)
+def test_unopenable_database_stops_the_start_naming_the_file(sofia_proc, robot_id, tmp_path) -> None:  # type: ignore[no-untyped-def]
+    (tmp_path / "state" / "samples.db").mkdir(parents=True)
     proc = sofia_proc("calibrator", "serve", "--state-dir", str(tmp_path / "state"))
     assert proc.popen.wait(60) == 2
-    assert f"{tmp_path / 'state' / 'samples.jsonl'}: cannot open the sample log" in proc.log()
+    assert f"{tmp_path / 'state' / 'samples.db'}: cannot open the sample database" in proc.log()
 
 
 def test_refused_operations_are_absent_and_acknowledged_ones_durable(
     sofia_proc, session, robot_id, tmp_path
 ) -> None:  # type: ignore[no-untyped-def]
     keys, state = Keys(robot_id), tmp_path / "state"
-    write_log(state, 40)  # larger than the service's own log file, which the size limit also covers
+    write_log(state, 40)  # imported on the first start
     proc = start(sofia_proc, session, keys, state)
 
     for change, reason in (({"rotation_xyzw": [0, 0, 0, 0]}, "unit quaternion"),
@@ -120,19 +125,22 @@ def test_refused_operations_are_absent_and_acknowledged_ones_durable(
     assert not ok and "no sample with id 999999: nothing removed" in body["message"], body
     assert ids(session, keys) == list(range(40))
 
-    size = (state / "samples.jsonl").stat().st_size  # a full disk: the next line stops in its middle
+    db = state / "samples.db"
+    size = db.stat().st_size  # a full disk: no WAL frame (4 kB) can be written any more
     hard = resource.getrlimit(resource.RLIMIT_FSIZE)[1]
-    resource.prlimit(proc.popen.pid, resource.RLIMIT_FSIZE, (size + 10, hard))
+    resource.prlimit(proc.popen.pid, resource.RLIMIT_FSIZE, (2000, hard))
     ok, body = add(session, keys, samples(41)[40])
-    assert not ok and "write failed, nothing written" in body["message"], body
+    assert not ok and "add failed, nothing written" in body["message"], body
     ok, body = query_json(session, keys.calibrator_op("remove"), json.dumps({"sample_ids": [3]}))
-    assert not ok and "write failed" in body["message"]
+    assert not ok and "remove failed, nothing written" in body["message"]
+    ok, status = query_json(session, keys.status("calibrator"))  # shown while the disk is full
+    assert ok and status["state"] == "degraded" and "sample store not writable" in status["detail"], status
     resource.prlimit(proc.popen.pid, resource.RLIMIT_FSIZE, (hard, hard))
-    assert (state / "samples.jsonl").stat().st_size == size
+    assert db.stat().st_size == size
     ok, body = add(session, keys, samples(42)[41])
     assert ok and body["samples"][0]["sample_id"] == 40
     ok, status = query_json(session, keys.status("calibrator"))
-    assert ok and status["counters"]["write_errors"] == 2 and status["state"] != "error"
+    assert ok and status["counters"]["write_errors"] == 2 and "not writable" not in status["detail"]
 
     proc.kill()
     proc2 = start(sofia_proc, session, keys, state)

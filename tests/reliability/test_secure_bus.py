@@ -18,10 +18,10 @@ from .conftest import Pki, SecureRouter
 KEY = "sofia/tsec/detector/detections"
 
 
-def _served(router: SecureRouter, pki: Pki, user: str = "sofia") -> None:
-    """Two clients through the router: a put of one reaches the subscriber of the other."""
+def _served(router: SecureRouter, pki: Pki, user: str = "detector") -> None:
+    """Two clients through the router: a put of the detector reaches the subscriber of a tool."""
     got = threading.Event()
-    with zenoh.open(router.client_config("detector", pki.passwords["detector"])) as sub_session:
+    with zenoh.open(router.client_config("sofia", pki.passwords["sofia"])) as sub_session:
         sub_session.declare_subscriber(KEY, lambda s: got.set())
         with zenoh.open(router.client_config(user, pki.passwords[user])) as pub_session:
             pub = pub_session.declare_publisher(KEY)

@@ -7,6 +7,7 @@ import json
 from pathlib import Path
 
 import pytest
+import zenoh
 from sofia_runtime.zenoh_config import (
     ZenohOptions,
     add_zenoh_args,
@@ -38,16 +39,21 @@ def test_defaults_peer_on_local_sockets_only(tmp_path: Path) -> None:
         "mode": "peer",
         "connect": [],
         "config_file": None,
-        "multicast": True,
+        "multicast": False,  # no scouting: another user's peer is never heard of
         "protocols": ["unixsock-stream"],
+        "local_peers": [],
     }
     assert (tmp_path / "sock").stat().st_mode & 0o777 == 0o700  # other users cannot reach the bus
     conf = zenoh_config(ZenohOptions(), env=env)
     assert _get(conf, "mode") == "peer"
     assert _get(conf, "transport/link/protocols") == ["unixsock-stream"]
-    assert _get(conf, "scouting/multicast/enabled") is True
-    assert _get(conf, "scouting/multicast/interface") == "lo"
-    assert _get(conf, "listen/endpoints")[0].startswith("unixsock-stream/")  # type: ignore[index]
+    assert _get(conf, "scouting/multicast/enabled") is False
+    own = _get(conf, "listen/endpoints")[0]  # type: ignore[index]
+    assert own.startswith("unixsock-stream/")  # type: ignore[union-attr]
+    with zenoh.open(conf):  # the next session dials this user's earlier ones
+        later = zenoh_config(ZenohOptions(), env=env)
+    assert own in _get(later, "connect/endpoints")  # type: ignore[operator]
+    assert _get(later, "connect/timeout_ms") == {"router": 0, "peer": 0, "client": 0}
 
 
 def test_each_session_its_own_socket_and_stale_ones_pruned(tmp_path: Path) -> None:
@@ -61,10 +67,14 @@ def test_each_session_its_own_socket_and_stale_ones_pruned(tmp_path: Path) -> No
 
 def test_router_mode_default_listen(tmp_path: Path) -> None:
     s = resolve(ZenohOptions(mode="router"), env={"SOFIA_ZENOH_SOCKET_DIR": str(tmp_path)})
-    assert s["listen"][0] == "tcp/127.0.0.1:7447"  # type: ignore[index]
-    assert s["protocols"] == ["unixsock-stream", "tcp"]
+    (local,) = s["listen"]  # type: ignore[misc]
+    assert local.startswith(f"unixsock-stream/{tmp_path}/")  # no TCP unless asked
+    assert s["protocols"] == ["unixsock-stream"]
+    s = resolve(ZenohOptions(mode="router", listen=["local", "tcp/127.0.0.1:7447"]),
+                env={"SOFIA_ZENOH_SOCKET_DIR": str(tmp_path)})  # fmt: skip
+    assert s["listen"][0] == "tcp/127.0.0.1:7447" and s["protocols"] == ["unixsock-stream", "tcp"]  # type: ignore[index]
     conf = zenoh_config(ZenohOptions(mode="router"), env={"SOFIA_ZENOH_SOCKET_DIR": str(tmp_path)})
-    assert _get(conf, "scouting/multicast/autoconnect") == []  # a router never dials a HELLO's locators
+    assert _get(conf, "scouting/multicast/enabled") is False
 
 
 def test_environment_over_defaults() -> None:

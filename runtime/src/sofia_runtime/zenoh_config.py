@@ -2,23 +2,28 @@
 
 Precedence, lowest first:
 
-1. defaults: peer mode, multicast scouting on the loopback interface, so processes on one machine
-   find each other with no router; sessions listen and connect only on Unix sockets
-   (``unixsock-stream``, in a directory only this user can enter), so no scouted locator (a forged
-   HELLO included) can make a process dial a network address;
+1. defaults: one user's bus. Peer mode; each session listens on a Unix socket
+   (``unixsock-stream``) in a directory only this user can enter (mode 0700, see
+   :func:`socket_dir`) and connects to the sockets already there, so processes of this user on
+   one machine find each other with no router and no network link. No multicast scouting: no
+   HELLO of another user's peer (or a forged one) is heard, and no UDP socket is open. Another
+   user can neither enter the directory nor be dialled. A router's default listener is such a
+   socket too (``local``); TCP only where asked (``--listen tcp/...``, and ``sofia up --ros2``,
+   which opens ``tcp/127.0.0.1:7447`` to rmw_zenoh nodes: every local user can then reach the
+   router);
 2. a json5 Zenoh config file: ``--zenoh-config FILE`` or ``$SOFIA_ZENOH_CONFIG``;
 3. environment: ``$SOFIA_ZENOH_MODE`` (peer|client|router), ``$SOFIA_ZENOH_CONNECT`` and
    ``$SOFIA_ZENOH_LISTEN`` (comma-separated endpoints, e.g. ``tcp/zenoh:7447``);
 4. command-line flags: ``--zenoh-mode``, ``--connect``, ``--listen``.
 
-When connect endpoints are given (a router, as in compose), multicast scouting is turned off:
-discovery goes through the router, and multicast does not cross Docker networks anyway. Whenever
+When connect endpoints are given (a router, as in compose), discovery goes through the router and
+this user's sockets are not dialled. Whenever
 the session has connect endpoints, whatever their source (a config file included), it waits for
 them when they are not reachable yet, rather than failing, and reconnects by itself after a router
 restart (a config file that sets ``connect/timeout_ms``, ``exit_on_failure`` or ``retry`` keeps its
-own values). Explicit ``--listen`` endpoints without connect endpoints keep multicast scouting;
-their protocols are then allowed too, and a scouted locator of those protocols is dialled: use a
-router (connect endpoints) on untrusted networks.
+own values). Explicit ``--listen`` endpoints without connect endpoints keep the local sockets too;
+their protocols are then allowed, and anyone who can reach them joins: on shared machines or
+untrusted networks use the secure router (docker/zenoh/router-secure.json5).
 
 Zenoh shared memory (payloads over 3 KB to processes on the same host through ``/dev/shm``) is on
 unless ``$SOFIA_ZENOH_SHM=off``.
@@ -46,7 +51,9 @@ ENV_SOCKET_DIR = "SOFIA_ZENOH_SOCKET_DIR"
 ENV_USER = "SOFIA_ZENOH_USER"
 ENV_PASSWORD_FILE = "SOFIA_ZENOH_PASSWORD_FILE"
 ENV_SHM = "SOFIA_ZENOH_SHM"  # "off" (or 0/false/no): no Zenoh shared memory; default on
-DEFAULT_ROUTER_LISTEN = ["tcp/127.0.0.1:7447"]
+LOCAL = "local"  # as a listen endpoint: this session's socket in the user's socket directory
+DEFAULT_ROUTER_LISTEN = [LOCAL]
+ROS2_ROUTER_LISTEN = "tcp/127.0.0.1:7447"  # where rmw_zenoh nodes look for a router (sofia up --ros2)
 LOCAL_PROTOCOL = "unixsock-stream"
 MODES = ("peer", "client", "router")
 CONNECT_TIMEOUT_MS = {"router": -1, "peer": -1, "client": -1}
@@ -87,6 +94,14 @@ def local_endpoint(env: dict[str, str] | None = None) -> str:
     directory = socket_dir(env)
     _prune(directory)
     return f"{LOCAL_PROTOCOL}/{directory}/{os.getpid()}-{secrets.token_hex(4)}.sock"
+
+
+def local_peers(own: str | None, env: dict[str, str] | None = None) -> list[str]:
+    """The endpoints of this user's other sessions on this machine (their sockets, oldest first)."""
+    directory = socket_dir(env)
+    socks = sorted(directory.glob("*-*.sock"), key=lambda p: p.stat().st_mtime if p.exists() else 0.0)
+    endpoints = [f"{LOCAL_PROTOCOL}/{p}" for p in socks]
+    return [e for e in endpoints if e != own]
 
 
 def _protocol(endpoint: str) -> str:
@@ -171,18 +186,21 @@ def resolve(options: ZenohOptions | None = None, env: dict[str, str] | None = No
     listen = list(explicit.get("listen", []))  # type: ignore[call-overload]
     if not listen and mode == "router":
         listen = list(DEFAULT_ROUTER_LISTEN)
-    protocols = None
-    if not connect:  # multicast scouting: only local links, plus the protocols of explicit listeners
-        if mode != "client":
-            listen.append(local_endpoint(env))
+    protocols, peers = None, []
+    listen = [e for e in listen if e != LOCAL]  # "local": the socket added below
+    if not connect:  # this user's sockets only, plus the protocols of explicit listeners
+        own = local_endpoint(env) if mode != "client" else None
+        listen += [own] if own else []
+        peers = local_peers(own, env)
         protocols = list(dict.fromkeys([LOCAL_PROTOCOL, *(_protocol(e) for e in listen)]))
     return {
         "mode": mode,
         "connect": connect,
         "listen": listen,
         "config_file": None,
-        "multicast": not connect,
+        "multicast": False,
         "protocols": protocols,
+        "local_peers": peers,
     }
 
 
@@ -258,14 +276,13 @@ def zenoh_config(options: ZenohOptions | None = None, env: dict[str, str] | None
         conf.insert_json5("listen/endpoints", json.dumps(s["listen"]))
     if s["protocols"]:
         conf.insert_json5("transport/link/protocols", json.dumps(s["protocols"]))
-    if s["multicast"]:
-        conf.insert_json5("scouting/multicast/enabled", "true")
-        conf.insert_json5("scouting/multicast/interface", json.dumps("lo"))
-        if s["mode"] == "router":  # a router never dials what a HELLO advertises
-            conf.insert_json5("scouting/multicast/autoconnect", "[]")
+    conf.insert_json5("scouting/multicast/enabled", "false")
+    if s["local_peers"]:  # this user's sessions: dialled now, those gone are not waited for
+        conf.insert_json5("connect/endpoints", json.dumps(s["local_peers"]))
+        conf.insert_json5("connect/timeout_ms", json.dumps({"router": 0, "peer": 0, "client": 0}))
+        conf.insert_json5("connect/exit_on_failure", json.dumps(EXIT_ON_FAILURE))
     else:
-        conf.insert_json5("scouting/multicast/enabled", "false")
-    _wait_for_connect(conf)
+        _wait_for_connect(conf)
     _apply_user(conf, env)
     _apply_shm(conf, env, default=True)
     return conf

@@ -23,7 +23,13 @@ from sofia_runtime.client import QueryError, ask
 from sofia_runtime.output import add_json_option, emit
 from sofia_runtime.ros2.cli import enabled as ros2_enabled
 from sofia_runtime.service import StopFlag
-from sofia_runtime.zenoh_config import DEFAULT_ROUTER_LISTEN, ZenohOptions, add_zenoh_args, zenoh_config
+from sofia_runtime.zenoh_config import (
+    DEFAULT_ROUTER_LISTEN,
+    ROS2_ROUTER_LISTEN,
+    ZenohOptions,
+    add_zenoh_args,
+    zenoh_config,
+)
 from sofia_schemas.keys import Keys, default_robot
 from sofia_schemas.messages import ServiceStatus
 
@@ -167,7 +173,11 @@ def health_table(rows: list[dict[str, Any]]) -> str:
 
 def default_specs(args: argparse.Namespace) -> list[ServiceSpec]:
     """The router, detector, calibrator and gripper (emulated unless a serial port is given)."""
-    specs = [ServiceSpec("router", ["router", "--listen", args.router_listen])]
+    ros2 = getattr(args, "ros2", False) or ros2_enabled()
+    listen = ["--listen", args.router_listen]
+    if ros2 and args.router_listen != ROS2_ROUTER_LISTEN:  # rmw_zenoh nodes dial this; any local user can
+        listen += ["--listen", ROS2_ROUTER_LISTEN]
+    specs = [ServiceSpec("router", ["router", *listen])]
     if "detector" in args.services:
         specs.append(ServiceSpec("detector", ["detector", "serve", "--board", str(args.board)], "detector"))
     if "calibrator" in args.services:
@@ -187,7 +197,7 @@ def default_specs(args: argparse.Namespace) -> list[ServiceSpec]:
     if "arm" in args.services:  # the Franka (opt-in: --services ...,arm), or franky-sim without --robot-ip
         robot = ["--robot-ip", args.robot_ip] if getattr(args, "robot_ip", None) else ["--sim"]
         specs.append(ServiceSpec("arm", ["arm", "serve", *robot], "arm"))
-    if getattr(args, "ros2", False) or ros2_enabled():
+    if ros2:
         specs.append(ServiceSpec("ros2", ["ros2", "serve"], "ros2"))  # SofIA on the ROS 2 graph (rmw_zenoh)
     return specs
 
@@ -206,10 +216,12 @@ def add_up_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--camera-sim", action="store_true", help="camera: the simulated D435")
     p.add_argument("--robot-ip", default=None, help="arm: the Franka's FCI address (default: franky-sim)")
     p.add_argument("--router-listen", default=DEFAULT_ROUTER_LISTEN[0], metavar="ENDPOINT",
-                   help=f"where the Zenoh router listens (default {DEFAULT_ROUTER_LISTEN[0]})")  # fmt: skip
+                   help=f"where the Zenoh router listens (default {DEFAULT_ROUTER_LISTEN[0]}: a socket only this "
+                   f"user reaches; with --ros2 also {ROS2_ROUTER_LISTEN})")  # fmt: skip
     p.add_argument("--robot", default=None, help="robot id of every key (default $SOFIA_ROBOT or panda)")
     p.add_argument("--ros2", action="store_true",
-                   help="also offer SofIA to ROS 2 nodes using rmw_zenoh (sofia ros2 serve); or $SOFIA_ROS2=1")  # fmt: skip
+                   help="also offer SofIA to ROS 2 nodes using rmw_zenoh (sofia ros2 serve); the router then "
+                   f"also listens on {ROS2_ROUTER_LISTEN}, open to every local user; or $SOFIA_ROS2=1")  # fmt: skip
 
 
 def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]

@@ -14,6 +14,7 @@ from sofia_schemas.transforms import make_transform
 
 from .calibrate import CHILD_FRAME, PARENT_FRAME
 from .errors import InputMismatch
+from .store import MAX_SAMPLES
 
 GUESS_QUAT_TOL = 0.01  # a typed guess quaternion within 1 % of unit norm is normalised
 
@@ -61,10 +62,12 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     c = sub.add_parser("calibrator", help="the calibrator service")
     cs = c.add_subparsers(dest="calibrator_cmd", required=True, metavar="ACTION")
     s = cs.add_parser("serve", help="run the online calibrator service on Zenoh")
-    s.add_argument("--state-dir", default="./var/calibrator", help="append-only sample log and saved results")
+    s.add_argument("--state-dir", default="./var/calibrator", help="sample database and saved results")
     s.add_argument("--from-clouds", action="store_true", help="also extract the blob from camera clouds")
     s.add_argument("--tolerance-ms", type=float, default=50.0, help="pose/blob stamp gap, ms")
     s.add_argument("--min-samples", type=int, default=3, help="samples before the first solve")
+    s.add_argument("--max-samples", type=int, default=MAX_SAMPLES,
+                   help=f"samples kept at most; more are refused (default {MAX_SAMPLES})")  # fmt: skip
     add_robot_arg(s)
     add_frame_args(s)
     add_zenoh_args(s)

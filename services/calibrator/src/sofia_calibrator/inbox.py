@@ -9,6 +9,7 @@ The worker wakes as soon as anything arrives and takes everything pending at onc
 from __future__ import annotations
 
 import threading
+import time
 from collections import deque
 from dataclasses import dataclass, field
 from typing import Any
@@ -20,7 +21,7 @@ class Batch:
 
     events: list[tuple[str, bytes]] = field(default_factory=list)  # ("pose" | "blob", payload)
     clouds: list[bytes] = field(default_factory=list)
-    queries: list[tuple[str, Any]] = field(default_factory=list)  # (op, zenoh.Query)
+    queries: list[tuple[str, Any, float]] = field(default_factory=list)  # (op, zenoh.Query, arrival)
 
     def __bool__(self) -> bool:
         return bool(self.events or self.clouds or self.queries)
@@ -31,7 +32,7 @@ class Inbox:
         self._cond = threading.Condition()
         self._events: deque[tuple[str, bytes]] = deque()
         self._clouds: deque[bytes] = deque()
-        self._queries: deque[tuple[str, Any]] = deque()
+        self._queries: deque[tuple[str, Any, float]] = deque()
         self.events_max, self.clouds_max, self.queries_max = events_max, clouds_max, queries_max
         self.dropped = {"pose": 0, "blob": 0, "cloud": 0}
         self.busy = 0  # queries answered "busy, retry" instead of queued
@@ -58,7 +59,7 @@ class Inbox:
             if len(self._queries) >= self.queries_max:
                 self.busy += 1
                 return len(self._queries)
-            self._queries.append((op, query))
+            self._queries.append((op, query, time.monotonic()))
             self._cond.notify()
             return 0
 

@@ -7,6 +7,7 @@ import time
 from dataclasses import dataclass, field
 
 import numpy as np
+from sofia_runtime.stamps import StampCheck
 from sofia_schemas import rosmsg
 from sofia_schemas.messages import CalibrationResult, now_ns
 from sofia_schemas.messages.calibration import (
@@ -43,12 +44,14 @@ class Calibrator:
     last_error: str = ""
     refused: int = 0  # paired samples refused: implausible, or the log could not store them
     dropped: int = 0  # blobs dropped from a full pending list
+    stamps: StampCheck = field(default_factory=StampCheck)  # poses, blobs, samples stamped in the future
 
     def on_pose(self, payload: bytes) -> None:
         pose = rosmsg.decode_flange_pose(payload)
-        self.poses.add(pose.stamp_ns, pose.matrix())
+        self.poses.add(self.stamps.check("flange pose", pose.stamp_ns), pose.matrix())
 
     def on_blob(self, stamp_ns: int, p_cam: np.ndarray, confidence: float) -> None:
+        self.stamps.check("blob", stamp_ns)
         if len(self.pending) >= PENDING_MAX:
             del self.pending[0]
             self.dropped += 1

@@ -32,3 +32,26 @@ class UnknownSamples(CalibrationError):  # noqa: N818 - named as in STYLE.md
 class CalibratorBusy(CalibrationError):  # noqa: N818 - named as in STYLE.md
     def __init__(self, waiting: int) -> None:
         super().__init__(f"busy, retry: {waiting} queries are already waiting for the calibrator")
+
+
+class SaveFailed(CalibrationError):  # noqa: N818 - named as in STYLE.md
+    def __init__(self, path: object, reason: str) -> None:
+        super().__init__(f"save failed writing {path}: {reason} (that file keeps its previous content)")
+
+
+class TooManySamples(CalibrationError):  # noqa: N818 - named as in STYLE.md
+    def __init__(self, limit: int) -> None:
+        super().__init__(f"sample refused: the store holds its maximum of {limit} samples "
+                         "(remove some, or reset; --max-samples sets the maximum)")  # fmt: skip
+        self.limit = limit
+
+
+class SolveFailed(CalibrationError):  # noqa: N818 - named as in STYLE.md
+    def __init__(self, n: int, reason: str) -> None:
+        super().__init__(f"solve with {n} samples failed: {reason}")
+
+
+class CalibratorLate(CalibrationError):  # noqa: N818 - named as in STYLE.md
+    def __init__(self, waited_s: float, deadline_s: float) -> None:
+        super().__init__(f"busy, retry: the calibrator reached this query after {waited_s:.1f} s "
+                         f"(its deadline is {deadline_s:g} s)")  # fmt: skip

@@ -1,4 +1,5 @@
-"""The sample log's file format, its recovery on start, and durable appends.
+"""The JSONL sample log of older versions (``samples.jsonl``): its format and its recovery, for
+the import into the sample database (:mod:`.sample_import`).
 
 One record per line: ``{"crc32":"1a2b3c4d",<the record's members>}`` + newline, where the CRC-32
 covers the record as written without it (``{`` + the rest of the line), so any damaged byte is
@@ -20,8 +21,6 @@ import zlib
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
-
-from .sample_errors import SampleLogError
 
 PREFIX = b'{"crc32":"'
 TORN_SUFFIX = ".torn"
@@ -112,45 +111,3 @@ def keep_damaged(path: Path, damaged: list[Damaged]) -> Path:
         os.fsync(f.fileno())
     os.replace(tmp, side)
     return side
-
-
-class Appender:
-    """Appends whole lines, durable (fsynced) when :meth:`append` returns; on any failure the log
-    is cut back to its previous size, so a refused line is never written later."""
-
-    def __init__(self, path: Path) -> None:
-        self.path = path
-        created = not path.exists()
-        self.fd = os.open(path, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o644)
-        self.size = os.fstat(self.fd).st_size
-        self.broken = ""  # why the log can no longer be trusted to hold only acknowledged lines
-        if created:  # the new file's name must survive a crash too
-            dir_fd = os.open(path.parent, os.O_RDONLY)
-            try:
-                os.fsync(dir_fd)
-            finally:
-                os.close(dir_fd)
-
-    def append(self, line: bytes) -> None:
-        if self.broken:
-            raise SampleLogError(self.path, f"not written: the log failed earlier ({self.broken}); "
-                                 "restart the calibrator")  # fmt: skip
-        try:
-            view, done = memoryview(line), 0
-            while done < len(line):
-                done += os.write(self.fd, view[done:])
-            os.fsync(self.fd)
-        except OSError as e:
-            self._undo(e)
-            raise SampleLogError(self.path, f"write failed, nothing written: {e.strerror or e}") from None
-        self.size += len(line)
-
-    def _undo(self, error: OSError) -> None:
-        try:
-            os.ftruncate(self.fd, self.size)
-            os.fsync(self.fd)
-        except OSError as e:
-            self.broken = f"{error.strerror}, and cutting the partial line failed: {e.strerror}"
-
-    def close(self) -> None:
-        os.close(self.fd)

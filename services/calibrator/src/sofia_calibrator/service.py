@@ -16,6 +16,7 @@ from typing import Any
 
 import numpy as np
 import zenoh
+from pydantic import BaseModel, ConfigDict, Field, ValidationError
 from sofia_runtime.limits import PayloadTooLarge, check_payload, error_text
 from sofia_runtime.service import (
     StatusEndpoint,
@@ -37,12 +38,14 @@ from sofia_schemas.messages.calibration import (
     CalibrationSolveOptions,
 )
 
+from .durable import write_atomic
 from .errors import InputMismatch
 from .formats import to_yaml
 from .inbox import Inbox
 from .online import Calibrator
 from .pairing import PairingOptions
-from .sample_errors import CalibratorBusy
+from .sample_checks import check_sample
+from .sample_errors import CalibratorBusy, CalibratorLate, SaveFailed, SolveFailed
 from .store import SampleStore
 
 log = logging.getLogger("sofia.calibrator")
@@ -55,6 +58,17 @@ IDLE_WAKE_S = 0.1  # with nothing to do the worker still wakes, to pair blobs wh
 QUIET_S = 0.05  # samples changed: solve once nothing more has arrived for this long ...
 SOLVE_DELAY_MAX_S = 1.0  # ... or once the first unsolved change is this old
 SETTLING_OPS = ("result", "save")  # queries answered with the result of the samples there are now
+QUERY_DEADLINE_S = 8.0  # a query the worker reaches later is answered "busy, retry" (clients wait 10 s)
+PAGE_MAX = 500  # samples per reply of ``samples`` (about 200 kB); ask the next page with after_id
+
+
+class SamplesPage(BaseModel):
+    """Payload of ``calibrator/samples`` (optional): the samples with ids above ``after_id``, at
+    most ``limit`` of them, in id order."""
+
+    model_config = ConfigDict(extra="forbid")
+    after_id: int = -1
+    limit: int = Field(PAGE_MAX, ge=1, le=PAGE_MAX)
 
 
 class Service:
@@ -62,6 +76,9 @@ class Service:
         self.cal, self.session, self.keys, self.from_clouds = cal, session, keys, from_clouds
         self.inbox = Inbox(EVENTS_MAX, CLOUDS_MAX, QUERIES_MAX)
         self.solved_generation = -1  # the store generation of the current result (or failed solve)
+        self.solve_failures = 0
+        self.solve_failing = ""  # why the last solve failed, until one succeeds
+        self.late_queries = 0
         self.pub = session.declare_publisher(keys.calibration_result)
 
     def declare(self) -> list[Any]:
@@ -79,6 +96,8 @@ class Service:
         """Runs on Zenoh's thread for status queries: reads only."""
         r, store, dropped = self.cal.result, self.cal.store, self.inbox.dropped
         problems = store.problems()
+        if self.solve_failing:
+            problems = [self.solve_failing, *problems]
         if problems:
             state, detail = "degraded", "; ".join(problems)
         else:
@@ -92,8 +111,9 @@ class Service:
                       "dropped": sum(dropped.values()) + self.cal.dropped,
                       "dropped_blobs": dropped["blob"] + self.cal.dropped,
                       "dropped_poses": dropped["pose"], "dropped_clouds": dropped["cloud"],
-                      "dropped_queries": self.inbox.busy, "refused_samples": self.cal.refused,
-                      **store.counters()},
+                      "dropped_queries": self.inbox.busy + self.late_queries, "late_queries": self.late_queries,
+                      "refused_samples": self.cal.refused, "solve_failures": self.solve_failures,
+                      **store.counters(), **self.cal.stamps.counters},
             info={"samples_consistent": not store.suspect(),
                   "sample_log": str(store.path)},
         )  # fmt: skip
@@ -133,7 +153,11 @@ class Service:
                 self.step("cloud", cloud)
             if self.cal.pending:
                 self.step("pair", None)
-            for op, query in batch.queries:
+            for op, query, arrived in batch.queries:
+                if (waited := time.monotonic() - arrived) > QUERY_DEADLINE_S:
+                    self.late_queries += 1
+                    reply_error(query, CalibratorLate(waited, QUERY_DEADLINE_S))
+                    continue
                 self.step("query", (op, query))
             if self.solved_generation == self.cal.store.generation:
                 first_unsolved = 0.0
@@ -182,19 +206,44 @@ class Service:
             self.cal.last_error = f"{n} samples, at least {self.cal.min_samples} needed"
             return
         try:
-            result = self.cal.solve()
-        except Exception as e:  # CalibrationError, or a numerical failure: report, keep serving
+            result = self.solve()
+        except SolveFailed as e:  # report, keep serving
             self.cal.result = None
-            self.cal.last_error = f"{type(e).__name__}: {e}"
-            log.warning("not solved with %d samples: %s", n, self.cal.last_error)
+            self.cal.last_error = f"{e}"
+            log.warning("%s", e)
             return
         self.pub.put(result.model_dump_json(), encoding=ENCODING_JSON)
         log.info("solved with %d samples: spread %s mm, %s; %s; noise %s mm", n,
                  np.round(result.spread_mm, 1).tolist(), "pass" if result.passes else "FAIL",
                  result.camera_correction.model, result.noise_mm and round(result.noise_mm, 2))  # fmt: skip
 
-    def samples_reply(self, query: zenoh.Query) -> None:
-        reply_json(query, CalibrationSamples(samples=self.cal.store.ordered()))
+    def solve(self, opts: CalibrationSolveOptions | None = None) -> Any:
+        """The calibrator's solve; any failure (a numerical one, or a fit the result's own checks
+        refuse) becomes :class:`SolveFailed` naming it. A failure with the service's own options
+        makes the status degraded until a solve succeeds (one with a caller's options only answers
+        that caller)."""
+        n = len(self.cal.store.samples)
+        try:
+            result = self.cal.solve(opts)
+        except ValidationError as e:
+            first = e.errors()[0]
+            where = ".".join(str(p) for p in first["loc"])
+            reason = f"the fit gave an impossible {where}: {first['msg']} (got {first.get('input')!r})"
+            self._failed(SolveFailed(n, reason), opts is None)
+        except Exception as e:  # CalibrationError, or a numerical failure
+            self._failed(SolveFailed(n, f"{type(e).__name__}: {e}"), opts is None)
+        self.solve_failing = ""
+        return result
+
+    def _failed(self, e: SolveFailed, own_options: bool) -> None:
+        self.solve_failures += 1
+        if own_options:
+            self.solve_failing = f"{e}"
+        raise e
+
+    def samples_reply(self, query: zenoh.Query, payload: bytes = b"") -> None:
+        page = SamplesPage.model_validate_json(payload) if payload.strip() else SamplesPage()
+        reply_json(query, CalibrationSamples(samples=self.cal.store.page(page.after_id, page.limit)))
 
     def answer(self, op: str, query: zenoh.Query) -> None:
         payload = query_payload(query)
@@ -208,9 +257,12 @@ class Service:
                 )
             reply_json(query, self.cal.result)
         elif op == "samples":
-            self.samples_reply(query)
+            self.samples_reply(query, payload)
         elif op == "add":
-            s = store.add(CalibrationSample.model_validate_json(payload))
+            sample = CalibrationSample.model_validate_json(payload)
+            check_sample(sample.model_copy(update={"sample_id": None}))  # named first: impossible values
+            self.cal.stamps.check("sample", sample.stamp_ns)
+            s = store.add(sample)
             log.info("sample %d added by query", s.sample_id)
             reply_json(query, CalibrationSamples(samples=[s]))
         elif op == "remove":
@@ -223,7 +275,7 @@ class Service:
             self.samples_reply(query)
         elif op == "solve":
             opts = CalibrationSolveOptions.model_validate_json(payload) if payload.strip() else None
-            result = self.cal.solve(opts)
+            result = self.solve(opts)
             self.solved_generation = store.generation
             if opts is not None:
                 self.cal.options = opts
@@ -233,17 +285,22 @@ class Service:
             if self.cal.result is None:
                 raise InputMismatch("nothing to save: no result yet")
             yaml_path = Path(store.dir) / "T_flange_cam.yaml"
-            yaml_path.write_text(to_yaml(self.cal.result))
             launch = Path(store.dir) / "camera_static_transform.launch"
-            launch.write_text(f"<launch>\n  {self.cal.result.ros1_static_transform}\n</launch>\n")
             ros2 = Path(store.dir) / "camera_static_transform_ros2.sh"
-            ros2.write_text(f"#!/bin/sh\n{self.cal.result.ros2_static_transform}\n")
+            try:  # each file whole, old or new: never half written
+                write_atomic(yaml_path, to_yaml(self.cal.result).encode())
+                write_atomic(
+                    launch, f"<launch>\n  {self.cal.result.ros1_static_transform}\n</launch>\n".encode()
+                )
+                write_atomic(ros2, f"#!/bin/sh\n{self.cal.result.ros2_static_transform}\n".encode(), 0o755)
+            except OSError as e:
+                raise SaveFailed(e.filename or store.dir, e.strerror or str(e)) from None
             reply_json(query, CalibrationFiles(files=[str(yaml_path), str(launch), str(ros2)]))
 
 
 def main(args: argparse.Namespace) -> int:
     keys = Keys(args.robot or default_robot())
-    store = SampleStore(args.state_dir)
+    store = SampleStore(args.state_dir, max_samples=args.max_samples)
     cal = Calibrator(
         store, PairingOptions(tolerance_ns=int(args.tolerance_ms * 1e6)), max(args.min_samples, 3),
         parent_frame=args.parent_frame, child_frame=args.child_frame,

@@ -32,6 +32,7 @@ from sofia_runtime.client import fetch_latest
 from sofia_runtime.limits import check_payload, error_text
 from sofia_runtime.service import StatusEndpoint, StopFlag, query_payload, reply_error, reply_json, run_worker
 from sofia_runtime.shm import SharedReader
+from sofia_runtime.stamps import StampCheck
 from sofia_runtime.zenoh_config import ZenohOptions, zenoh_config
 from sofia_schemas import Board, pointcloud
 from sofia_schemas.keys import ENCODING_JSON, Keys
@@ -81,6 +82,7 @@ class Detector:
         self.transform_name: str | None = None
         self.transform_pinned = config.transform_file is not None
         self.result_stamp_ns = -1  # stamp of the calibrator result in use
+        self.stamps = StampCheck()  # future poses and results, live results older than this start
         if config.transform_file is not None:
             self.T_flange_cam, self.correction = pinned_transform(config.transform_file)
             self.transform_name = f"file {config.transform_file}"
@@ -110,19 +112,23 @@ class Detector:
         try:
             check_payload(str(sample.key_expr), sample.payload)
             pose = decode_flange(sample.payload.to_bytes(), sample.encoding)
+            self.stamps.check("flange pose", pose.stamp_ns)
         except ValueError as e:
             self._error(f"flange pose: {error_text(e)}")
             return
         self.flange.add(pose.stamp_ns, pose)
         self.work.poke()  # a camera cloud may be waiting for this pose
 
-    def on_calibration(self, sample: zenoh.Sample) -> None:
+    def on_calibration(self, sample: zenoh.Sample, live: bool = False) -> None:
+        """A calibrator result; ``live``: published now (not fetched at start), so one stamped
+        before this service started is a replay and is refused."""
         if self.transform_pinned:
             return
         try:
             check_payload(str(sample.key_expr), sample.payload)
             result = CalibrationResult.model_validate_json(sample.payload.to_bytes())
             T = parse_transform({"matrix": result.matrix}, "calibration result")
+            self.stamps.check("calibration result", result.stamp_ns, since_start=live)
         except ValueError as e:
             self._error(f"calibration result: {error_text(e)}")
             return
@@ -250,7 +256,8 @@ class Detector:
             counters = dict(self.counters, received=w.received, dropped=w.dropped, busy_queries=w.busy,
                             no_transform=d.count(UNMAPPED), bad_clouds=d.count(BAD),
                             picks=self.picks.published, picks_withheld=self.picks.withheld,
-                            shm_read=self.shared.read, shm_copied=self.shared.copied)  # fmt: skip
+                            shm_read=self.shared.read, shm_copied=self.shared.copied,
+                            **self.stamps.counters)  # fmt: skip
             transform, detail = self.transform_name, self.last_error
         state, dropped = self.drops.state()
         return ServiceStatus(
@@ -278,7 +285,9 @@ def main(config: ServiceConfig) -> int:
             session.declare_subscriber(keys.points, service.on_points),
             session.declare_subscriber(keys.camera_points, service.on_camera_points),
             session.declare_subscriber(keys.flange_pose, service.on_flange_pose),
-            session.declare_subscriber(keys.calibration_result, service.on_calibration),
+            session.declare_subscriber(
+                keys.calibration_result, lambda s: service.on_calibration(s, live=True)
+            ),
             session.declare_queryable(keys.detect, service.on_query),
             StatusEndpoint(session, keys.status("detector"), service.status),
         ]

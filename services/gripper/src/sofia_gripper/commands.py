@@ -25,8 +25,9 @@ STALL_VELOCITY_RAD_S = 0.05  # about two units of Present Velocity: "not moving"
 MOTION = {"open", "close", "move", "grasp", "release"}
 
 
-def execute(g: Gripper, cmd: GripperCommand) -> GripperResult:
-    """Run ``cmd`` on gripper ``g``."""
+def execute(g: Gripper, cmd: GripperCommand, clear_abort: bool = True) -> GripperResult:
+    """Run ``cmd`` on gripper ``g``. ``clear_abort=False``: the caller cleared ``g.abort`` itself
+    (under its own lock, so a stop arriving after that point still ends this command)."""
     t0 = time.monotonic()
     g.counters["commands"] += 1
     if cmd.action == "state":
@@ -39,7 +40,8 @@ def execute(g: Gripper, cmd: GripperCommand) -> GripperResult:
             g.bus.write("goal_position", state.position_ticks)
         return _result(cmd, True, "done", g.next_state(0.5) or g.state, t0)
     with g.command_lock:
-        g.abort.clear()
+        if clear_abort:
+            g.abort.clear()
         if cmd.action == "torque":
             return _torque(g, cmd, t0)
         if cmd.action == "reboot":

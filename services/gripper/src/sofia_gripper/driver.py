@@ -139,10 +139,10 @@ class Gripper:
         self.write_goal("goal_position", goal)
         return goal
 
-    def execute(self, command: GripperCommand) -> GripperResult:
+    def execute(self, command: GripperCommand, clear_abort: bool = True) -> GripperResult:
         from .commands import execute
 
-        return execute(self, command)
+        return execute(self, command, clear_abort)
 
     # --- state loop -------------------------------------------------------
     def _loop(self) -> None:

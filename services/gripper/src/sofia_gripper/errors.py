@@ -52,3 +52,8 @@ class OutOfRange(CommandError):  # noqa: N818
 class NotReady(CommandError):  # noqa: N818
     def __init__(self, reason: str) -> None:
         super().__init__(f"gripper not ready: {reason}")
+
+
+class QueueFull(CommandError):  # noqa: N818
+    def __init__(self, depth: int) -> None:
+        super().__init__(f"gripper busy: {depth} motion commands already queued; retry after they finish")

@@ -6,8 +6,9 @@
 - ``Keys(robot).status("gripper")``: :class:`ServiceStatus` every second, and queryable.
 
 The query callback only queues the query. A dispatcher thread parses it and answers ``stop`` and
-``state`` at once (so ``stop`` can interrupt a running grasp); motion commands run one at a time
-on the command thread.
+``state`` at once (so ``stop`` can interrupt a running grasp); motion commands wait in a bounded
+queue and run one at a time on the command thread (:mod:`~sofia_gripper.command_queue`). ``stop``
+ends the running command and answers every queued one ``stopped``.
 """
 
 from __future__ import annotations
@@ -37,6 +38,7 @@ from sofia_schemas.errors import PayloadError
 from sofia_schemas.keys import ENCODING_JSON, Keys
 from sofia_schemas.messages import GripperCommand, GripperState, ServiceStatus, now_ns
 
+from .command_queue import CommandQueue
 from .config import GripperConfig, save_config
 from .driver import Gripper
 from .errors import GripperError
@@ -63,13 +65,14 @@ class GripperService:
     def __init__(self, gripper: Gripper) -> None:
         self.gripper = gripper
         self.inbox: queue.Queue[zenoh.Query | None] = queue.Queue()
-        self.work: queue.Queue[tuple[zenoh.Query, GripperCommand] | None] = queue.Queue()
+        self.work = CommandQueue(gripper, self.run_command)
         self.errors = 0
 
     def run_command(self, query: zenoh.Query, cmd: GripperCommand) -> None:
-        """Execute ``cmd`` and answer ``query`` (the reply finalises it); never raises."""
+        """Execute ``cmd`` and answer ``query`` (the reply finalises it); never raises. Motion
+        commands come from :class:`CommandQueue`, which cleared the stop flag before."""
         try:
-            result = self.gripper.execute(cmd)
+            result = self.gripper.execute(cmd, clear_abort=False)
         except GripperError as e:
             self.errors += 1
             log.warning("gripper %s refused: %s", cmd.action, e)
@@ -91,22 +94,30 @@ class GripperService:
                 log.warning("%s", e)
                 reply_error(query, e)
                 continue
-            if cmd.action in IMMEDIATE:
+            if cmd.action == "stop":
+                cancelled = self.work.stop()
+                log.info("gripper stop: the running command ends, %d queued cancelled", cancelled)
+                self.run_command(query, cmd)
+            elif cmd.action in IMMEDIATE:
                 self.run_command(query, cmd)
             else:
-                self.work.put((query, cmd))
-        self.work.put(None)
+                try:
+                    self.work.put(query, cmd)
+                except GripperError as e:
+                    self.errors += 1
+                    log.warning("%s", e)
+                    reply_error(query, e)
+        self.work.close()
 
     def work_loop(self) -> None:
-        while (item := self.work.get()) is not None:
-            self.run_command(*item)
+        self.work.work_loop()
 
     def status(self) -> ServiceStatus:
         g = self.gripper
         s = g.state
         state: Literal["ok", "degraded", "error"] = "ok" if s.connected and not s.error else "degraded"
         state = state if s.connected else "error"
-        counters = dict(g.counters, command_errors=self.errors)
+        counters = dict(g.counters, command_errors=self.errors, **self.work.counters)
         return ServiceStatus(
             service="gripper", stamp_ns=now_ns(), state=state, detail=s.error or "", counters=counters,
             info={"port": g.config.port, "baud": g.config.baud, "id": g.config.dxl_id, "protocol": g.config.protocol},

@@ -13,15 +13,15 @@ import zenoh
 from sofia_schemas.keys import Keys, add_robot_arg, default_robot
 from sofia_schemas.messages import ServiceStatus
 
-from .client import QueryError, ask
+from .client import QueryError, ask, is_timeout
 from .client import query as query_replies
 from .decode import describe
 from .output import add_json_option, emit
 from .service import StopFlag
-from .zenoh_config import ZenohOptions, add_zenoh_args, zenoh_config
+from .zenoh_config import ZenohOptions, add_zenoh_args, resolve, zenoh_config
 
 log = logging.getLogger("sofia.bus")
-HEALTHY = ("ok", "degraded")
+EXIT_DEGRADED = 3  # `sofia health`: the service answers but says it is degraded
 
 
 def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
@@ -59,8 +59,14 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     add_zenoh_args(p)
     p.set_defaults(func=query)
 
-    p = sub.add_parser("health", help="exit 0 when SERVICE answers its status and is healthy")
+    p = sub.add_parser(
+        "health", help="exit 0 when SERVICE answers its status and is healthy",
+        description="Ask SERVICE for its status. Exit 0 when it is ok, 3 when it is degraded (0 with "
+        "--degraded-ok), 1 when it is in error or does not answer.",
+    )  # fmt: skip
     p.add_argument("service", help="detector, calibrator, gripper, replay")
+    p.add_argument("--degraded-ok", action="store_true",
+                   help="exit 0 on degraded too (e.g. a detector before its first calibration)")  # fmt: skip
     add_robot_arg(p)
     p.add_argument(
         "--timeout", type=float, default=5.0, metavar="S", help="seconds to wait for the status (default 5)"
@@ -108,7 +114,11 @@ def echo(args: argparse.Namespace) -> int:
         session.declare_subscriber(args.key, on_sample)
         log.info("listening on %s", args.key)
         stop.wait(args.timeout or None)
-    return 0 if (count or not args.count) else 1
+    if args.count and count < args.count:
+        print(f"sofia echo: {count} of {args.count} messages on {args.key} within {args.timeout:g} s",
+              file=sys.stderr)  # fmt: skip
+        return 1
+    return 0
 
 
 def query(args: argparse.Namespace) -> int:
@@ -128,6 +138,8 @@ def query(args: argparse.Namespace) -> int:
                 s = reply.ok
                 _print(str(s.key_expr), s.payload.to_bytes(), str(s.encoding), args.json)
             elif (err := reply.err) is not None:
+                if is_timeout(err):  # Zenoh's own "Timeout": no queryable answered in time
+                    continue
                 n_err += 1
                 desc = describe(err.payload.to_bytes(), str(err.encoding))
                 error = {"key": args.key, "error": desc.get("json", desc)}
@@ -150,7 +162,9 @@ def health(args: argparse.Namespace) -> int:
                 print(f"{args.service}: {e}", file=sys.stderr)
             return 1
     emit(args, status, f"{args.service}: {status.state} {status.detail}".rstrip())
-    return 0 if status.state in HEALTHY else 1
+    if status.state == "ok" or (status.state == "degraded" and args.degraded_ok):
+        return 0
+    return EXIT_DEGRADED if status.state == "degraded" else 1
 
 
 def router(args: argparse.Namespace) -> int:
@@ -160,8 +174,21 @@ def router(args: argparse.Namespace) -> int:
         return 2
     options.mode = "router"
     stop = StopFlag()
-    with zenoh.open(zenoh_config(options)) as session:
+    try:
+        session = zenoh.open(zenoh_config(options))
+    except zenoh.ZError as e:  # e.g. the port is taken by another router
+        where = ", ".join(map(str, resolve(options).get("listen") or [])) or "its endpoints"  # type: ignore[call-overload]
+        print(f"sofia router: error: cannot listen on {where}: {_first_line(e)}", file=sys.stderr)
+        return 2
+    with session:
         log.info("router ready: zid %s", session.zid())
         stop.wait()
     log.info("router stopped")
     return 0
+
+
+def _first_line(error: BaseException) -> str:
+    """The cause Zenoh names, e.g. ``Address already in use (os error 98)``, on one line."""
+    text = str(error).strip()
+    reason = text.rsplit(": ", 1)[-1] if "os error" in text else text
+    return reason.splitlines()[0] if reason else type(error).__name__

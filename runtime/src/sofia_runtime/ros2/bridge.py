@@ -33,6 +33,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import zenoh
+from sofia_schemas.frames import BASE_FRAME, CAMERA_FRAME, FLANGE_FRAME
 from sofia_schemas.keys import ENCODING_CDR_POINTCLOUD2, ENCODING_CDR_TRANSFORM, Keys
 from sofia_schemas.messages import CalibrationResult, Detection, ErrorReply, GripperState, PickTarget
 from sofia_schemas.ros2 import convert as cv
@@ -54,11 +55,11 @@ CLOUD_QOS = Qos(depth=5, block=True)
 class BridgeConfig:
     robot: str
     domain: int | None = None
-    camera_frame: str = "camera_color_optical_frame"  # child frame of the calibration on /tf_static
+    camera_frame: str = CAMERA_FRAME  # child frame of the calibration on /tf_static
     camera_topic: str = "/camera/camera/depth/color/points"  # ROS 2 cloud taken in ("" = none)
     tf_input: bool = True  # compose the flange pose from ROS 2 /tf
-    base_frame: str = "panda_link0"
-    flange_frame: str = "panda_link8"
+    base_frame: str = BASE_FRAME
+    flange_frame: str = FLANGE_FRAME
     detect_timeout_s: float = 10.0
 
 

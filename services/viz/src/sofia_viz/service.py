@@ -33,6 +33,7 @@ from foxglove.messages import SceneEntityDeletion, SceneEntityDeletionType, Scen
 from sofia_runtime.service import StatusEndpoint, StopFlag
 from sofia_runtime.zenoh_config import ZenohOptions, zenoh_config
 from sofia_schemas import Board
+from sofia_schemas.frames import CAMERA_FRAME
 from sofia_schemas.keys import Keys
 from sofia_schemas.messages import (
     CalibrationResult,
@@ -62,7 +63,7 @@ class ServiceConfig:
     board: Board
     host: str = "127.0.0.1"
     port: int = 8765
-    camera_frame: str = "camera_color_optical_frame"
+    camera_frame: str = CAMERA_FRAME
 
 
 def ros2_channel(topic: str, typename: str) -> foxglove.Channel:
@@ -169,7 +170,7 @@ def main(config: ServiceConfig) -> int:
 
         def status() -> ServiceStatus:
             return ServiceStatus(service="viz", stamp_ns=now_ns(), state="ok", detail=viz.last_error,
-                                 counters=dict(viz.counters), info={"foxglove": f"ws://{config.host}:{server.port}"})  # fmt: skip
+                                 counters=dict(viz.counters), info={"foxglove": f"ws://{config.host}:{server.port}", "board": config.board.digest})  # fmt: skip
 
         endpoint = StatusEndpoint(session, keys.status("viz"), status)
         log.info(

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 import logging
+import re
 import sys
 import threading
 from pathlib import Path
@@ -177,8 +178,7 @@ def router(args: argparse.Namespace) -> int:
     try:
         session = zenoh.open(zenoh_config(options))
     except zenoh.ZError as e:  # e.g. the port is taken by another router
-        where = ", ".join(map(str, resolve(options).get("listen") or [])) or "its endpoints"  # type: ignore[call-overload]
-        print(f"sofia router: error: cannot listen on {where}: {_first_line(e)}", file=sys.stderr)
+        print(f"sofia router: error: {_listen_error(e, options)}", file=sys.stderr)
         return 2
     with session:
         log.info("router ready: zid %s", session.zid())
@@ -187,8 +187,16 @@ def router(args: argparse.Namespace) -> int:
     return 0
 
 
-def _first_line(error: BaseException) -> str:
-    """The cause Zenoh names, e.g. ``Address already in use (os error 98)``, on one line."""
-    text = str(error).strip()
-    reason = text.rsplit(": ", 1)[-1] if "os error" in text else text
-    return reason.splitlines()[0] if reason else type(error).__name__
+def _listen_error(error: BaseException, options: ZenohOptions) -> str:
+    """Zenoh's listener error in one line: the endpoint and the OS's reason, without its source
+    locations (``... bound to tcp/127.0.0.1:7447: [...: Address already in use (os error 98) at ...``)."""
+    text = str(error)
+    where = re.search(r"bound to (\S+?):? \[", text)
+    reason = re.search(r"([A-Z][^:\[\]]*\(os error \d+\))", text)
+    if where is None:
+        endpoints = resolve(options).get("listen") or []
+        where_text = ", ".join(map(str, endpoints)) or "its endpoints"  # type: ignore[call-overload]
+    else:
+        where_text = where.group(1)
+    why = reason.group(1) if reason else text.split(" at /", 1)[0]
+    return f"cannot listen on {where_text}: {why[0].lower()}{why[1:]}"

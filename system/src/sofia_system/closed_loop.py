@@ -21,7 +21,7 @@ from sofia_schemas.messages import ArmCommand, ArmPhase, ArmResult, Detection
 from sofia_schemas.transforms import rotation_angle
 
 from .bus import Collector, wait_until
-from .launcher import Launcher, ServiceSpec, board_args
+from .launcher import Launcher, ServiceSpec, all_ready, board_args
 from .steps import sofia
 from .summary import Summary, say
 from .wording import field_text, transform_text
@@ -48,7 +48,7 @@ def _healthy(session: zenoh.Session, launchers: list[Launcher], timeout: float) 
     def ok() -> bool:
         for la in launchers:
             la.poll()
-        return all(s == "ok" for la in launchers for s in la.check_health(session).values())
+        return all(all_ready(la.check_health(session)) for la in launchers)
 
     return wait_until(ok, timeout)
 

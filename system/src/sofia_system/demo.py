@@ -27,7 +27,7 @@ from sofia_schemas.keys import default_robot
 
 from . import steps
 from .bus import wait_until
-from .launcher import Launcher, ServiceSpec, board_args
+from .launcher import Launcher, ServiceSpec, all_ready, board_args
 from .summary import Summary, say
 
 log = logging.getLogger("sofia.demo")
@@ -143,7 +143,7 @@ def _run(out: Path, recordings: Path, n_scenes: int, n_poses: int, board: Path |
 
             def all_healthy() -> bool:
                 launcher.poll()
-                return all(s == "ok" for s in launcher.check_health(session).values())
+                return all_ready(launcher.check_health(session))
 
             healthy = wait_until(all_healthy, 90)
             say(launcher.table())

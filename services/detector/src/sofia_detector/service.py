@@ -33,8 +33,7 @@ from sofia_runtime.limits import check_payload, error_text
 from sofia_runtime.service import StatusEndpoint, StopFlag, query_payload, reply_error, reply_json, run_worker
 from sofia_runtime.shm import SharedReader
 from sofia_runtime.zenoh_config import ZenohOptions, zenoh_config
-from sofia_schemas import Board, pointcloud
-from sofia_schemas.frames import CAMERA_FRAME
+from sofia_schemas import Board, frames, pointcloud
 from sofia_schemas.keys import ENCODING_JSON, Keys
 from sofia_schemas.messages import CalibrationResult, Detection, ServiceStatus, now_ns
 from sofia_schemas.messages.calibration import CameraCorrection, correction_applied
@@ -63,7 +62,7 @@ class ServiceConfig:
     params: DetectorParams = field(default_factory=DetectorParams)
     pick: PickParams = field(default_factory=PickParams)
     backlog: int = 1  # clouds kept while busy: 1 keeps only the latest; more absorb a short stall
-    camera_frames: tuple[str, ...] = (CAMERA_FRAME,)  # frame ids mapped with T_flange_cam
+    camera_frames: tuple[str, ...] = (frames.CAMERA_FRAME,)  # frame ids mapped with T_flange_cam
     pose_wait_s: float = POSE_WAIT_S  # how long a camera cloud waits for the flange pose of its stamp
 
 

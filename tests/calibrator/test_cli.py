@@ -44,7 +44,7 @@ def test_calibrate_lab_json_and_plot(lab_dir: Path, tmp_path: Path) -> None:
     np.testing.assert_allclose(1e3 * np.sqrt(np.diag(cov)[:3]), body["std_translation_mm"], rtol=1e-6)
     assert 0.5 < body["noise_mm"] < 3.0
     assert np.allclose(np.array(body["matrix"])[:3, 3], body["translation"])
-    assert "panda_link8 panda_camera" in body["ros1_static_transform"]
+    assert "panda_link8 camera_color_optical_frame" in body["ros1_static_transform"]
     assert out.stat().st_size > 20_000 and out.read_bytes()[:4] == b"\x89PNG"
     doc = yaml.safe_load((tmp_path / "cal.yaml").read_text())
     assert doc["camera_correction"]["model"] == "depth_scale"
@@ -99,11 +99,12 @@ def test_yaml_and_ros_lines_name_the_direction() -> None:
     assert text.startswith("# T_flange_cam: maps points in the camera optical frame into the flange frame")
     t, q = msg.translation, msg.quaternion_xyzw
     assert (
-        f'args="{t[0]:.6f} {t[1]:.6f} {t[2]:.6f} {q[0]:.6f} {q[1]:.6f} {q[2]:.6f} {q[3]:.6f} panda_link8 panda_camera 100"'
+        f'args="{t[0]:.6f} {t[1]:.6f} {t[2]:.6f} {q[0]:.6f} {q[1]:.6f} {q[2]:.6f} {q[3]:.6f} panda_link8 camera_color_optical_frame 100"'
         in msg.ros1_static_transform
     )
     assert (
-        f"--qw {q[3]:.6f} --frame-id panda_link8 --child-frame-id panda_camera" in msg.ros2_static_transform
+        f"--qw {q[3]:.6f} --frame-id panda_link8 --child-frame-id camera_color_optical_frame"
+        in msg.ros2_static_transform
     )
     np.testing.assert_allclose(msg.matrix, pr.T_flange_cam, atol=0.01)
 
@@ -144,4 +145,4 @@ def test_frames_are_options_and_a_w_first_guess_is_one_more_start(lab_dir: Path)
     assert b["parent_frame"] == "fr3_link8" and b["child_frame"] == "cam_optical"
     assert "fr3_link8 cam_optical 100" in b["ros1_static_transform"]
     assert "--frame-id fr3_link8 --child-frame-id cam_optical" in b["ros2_static_transform"]
-    assert a["parent_frame"] == "panda_link8" and a["child_frame"] == "panda_camera"
+    assert a["parent_frame"] == "panda_link8" and a["child_frame"] == "camera_color_optical_frame"

@@ -125,7 +125,7 @@ def test_service_online_queries_errors_and_restart(
 
     ok, body = query_json(session, keys.calibrator_op("save"))
     assert ok and all(Path(f).is_file() for f in body["files"])
-    assert "panda_link8 panda_camera" in (state / "camera_static_transform.launch").read_text()
+    assert "panda_link8 camera_color_optical_frame" in (state / "camera_static_transform.launch").read_text()
 
     # a crash loses nothing: the restarted calibrator resumes and publishes the same result
     proc.kill()

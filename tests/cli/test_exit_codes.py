@@ -39,7 +39,11 @@ IN_PROCESS: list[tuple[list[str], int, str]] = [
 PROCESSES: list[tuple[list[str], int, str]] = [
     (["query", "sofia/{robot}/nobody/here", "--timeout", "1"], 1, "no reply from sofia/{robot}/nobody/here"),
     (["health", "detector", "--timeout", "1"], 1, "detector:"),
-    (["echo", "sofia/{robot}/nothing", "--count", "1", "--timeout", "1"], 1, ""),
+    (
+        ["echo", "sofia/{robot}/nothing", "--count", "1", "--timeout", "1"],
+        1,
+        "sofia echo: 0 of 1 messages on sofia/{robot}/nothing within 1 s",
+    ),
     (["replay", "play"], 2, "the following arguments are required: file"),
     (["--version"], 0, ""),
 ]

@@ -99,6 +99,10 @@ def test_camera_clouds_without_calibration_make_the_status_degraded(
         [SOFIA, "health", "detector"], env=env, capture_output=True, text=True, timeout=60
     )
     assert "detector: degraded" in health.stdout and "not mapped to the base frame" in health.stdout, health
+    assert health.returncode == 3  # degraded: serving, not healthy (0 with --degraded-ok)
+    relaxed = subprocess.run([SOFIA, "health", "detector", "--degraded-ok"], env=env, capture_output=True,
+                             text=True, timeout=60)  # fmt: skip
+    assert relaxed.returncode == 0, relaxed
     # base-frame clouds are still detected
     pub = session.declare_publisher(keys.points, congestion_control=BLOCK)
     pub.put(

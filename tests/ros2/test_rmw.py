@@ -68,7 +68,10 @@ def test_attachment_wire_format() -> None:
     assert Attachment.decode(raw) == att
     keyed = (b"\x0fsequence_number" + struct.pack("<q", 7) + b"\x10source_timestamp"
              + struct.pack("<q", 1_700_000_000_000_000_001) + b"\x0asource_gid\x10" + gid)  # fmt: skip
-    assert Attachment.decode(keyed) == att  # rmw_zenoh before 0.2.4
+    assert Attachment.decode(keyed) == Attachment(
+        7, 1_700_000_000_000_000_001, gid, keyed=True
+    )  # before 0.2.4
+    assert Attachment.decode(keyed).encode() == keyed  # a reply to such a client is in its form
     with pytest.raises(PayloadError, match="33"):
         Attachment.decode(raw[:-1])
 

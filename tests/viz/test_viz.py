@@ -101,3 +101,57 @@ def test_foxglove_client_gets_channels_and_decodes(sofia_proc, robot_id: str) ->
     assert np.isclose(static.transform.translation.x, DEFAULT_T_FLANGE_CAM[0, 3])
     assert len(got["/sofia/scene"]) > 0
     assert proc.stop() == 0 and "Traceback" not in proc.log()
+
+
+def _advertised(ws: Any, topics: tuple[str, ...]) -> dict[str, dict[str, Any]]:
+    channels: dict[str, dict[str, Any]] = {}
+    deadline = time.monotonic() + 20
+    while not set(topics) <= set(channels) and time.monotonic() < deadline:
+        msg = ws.recv(timeout=5)
+        if isinstance(msg, str) and json.loads(msg).get("op") == "advertise":
+            channels.update({c["topic"]: c for c in json.loads(msg)["channels"]})
+    assert set(topics) <= set(channels), sorted(channels)
+    return channels
+
+
+def test_client_joining_after_the_calibration_gets_tf_static_and_calibration(
+    sofia_proc, robot_id: str
+) -> None:  # type: ignore[no-untyped-def]
+    keys = Keys(robot_id)
+    proc = sofia_proc("viz", "serve", "--port", "0")
+    proc.wait_for_log("viz ready")
+    port = int(re.search(r"ws://127\.0\.0\.1:(\d+)", proc.log()).group(1))  # type: ignore[union-attr]
+    latched = ("/tf_static", "/sofia/calibration")
+    with zenoh.open(zenoh_config()) as session:
+        status_key, logged = keys.status("viz"), 0
+        deadline = time.monotonic() + 30
+        while logged < 1 and time.monotonic() < deadline:  # the calibration, once, before any client
+            session.put(keys.calibration_result, _calibration().to_json_bytes(), encoding=ENCODING_JSON)
+            time.sleep(0.3)
+            replies = list(session.get(status_key, timeout=2.0))
+            if replies and replies[0].ok is not None:
+                logged = json.loads(replies[0].ok.payload.to_bytes())["counters"]["logged"]
+        assert logged >= 1
+    for _ in range(2):  # two clients in turn, each after the calibration
+        with connect(f"ws://127.0.0.1:{port}", subprotocols=["foxglove.sdk.v1"]) as ws:
+            channels = _advertised(ws, latched)
+            ws.send(json.dumps({"op": "subscribe", "subscriptions": [
+                {"id": i, "channelId": channels[t]["id"]} for i, t in enumerate(latched)]}))  # fmt: skip
+            got: dict[str, bytes] = {}
+            t0 = time.monotonic()
+            while len(got) < len(latched) and time.monotonic() - t0 < 3.0:
+                try:
+                    msg = ws.recv(timeout=0.2)
+                except TimeoutError:
+                    continue
+                if isinstance(msg, bytes) and msg[0] == 1:
+                    sub_id, _log_time = struct.unpack_from("<IQ", msg, 1)
+                    got.setdefault(latched[sub_id], msg[13:])
+            assert set(got) == set(latched), (sorted(got), proc.log()[-1500:])
+            static = decode(got["/tf_static"], cv.TF_MESSAGE).transforms[0]
+            assert (static.header.frame_id, static.child_frame_id) == (
+                "panda_link8",
+                "camera_color_optical_frame",
+            )
+            assert CalibrationResult.model_validate_json(got["/sofia/calibration"]).stamp_ns == 7
+    assert proc.stop() == 0 and "Traceback" not in proc.log()

@@ -37,7 +37,27 @@ from .mcap_summary import RecordingSummary, summarize
 TRUTH_METADATA = "sofia.truth"
 TRUTH_KEY = "json"
 # what the mcap package raises on a corrupt or truncated file
-MCAP_ERRORS = (McapError, ValueError, EOFError, struct.error)
+MCAP_ERRORS = (McapError, ValueError, EOFError, struct.error, OSError)  # OSError: a seek before the start
+KNOWN_STARTS = {b"#ROSBAG": "a ROS 1 bag (`sofia replay convert` turns it into MCAP)",
+                b"SQLite format": "an SQLite database (a ROS 2 .db3 bag?), not MCAP"}  # fmt: skip
+
+
+def why_not_mcap(path: str | Path, error: BaseException) -> str:
+    """What is wrong with a file the MCAP reader refused, in words (not the reader's tuple of bytes)."""
+    text = str(error)
+    if "magic" in text:
+        try:
+            with open(path, "rb") as f:
+                head = f.read(16)
+        except OSError:
+            head = b""
+        known = next((what for start, what in KNOWN_STARTS.items() if head.startswith(start)), None)
+        return known or "it does not start with the MCAP magic bytes (is it an MCAP recording?)"
+    if isinstance(error, OSError | EOFError | struct.error):
+        return f"it ends early ({Path(path).stat().st_size} bytes): truncated or still being written"
+    return text or type(error).__name__
+
+
 COMPRESSIONS = {"zstd": CompressionType.ZSTD, "lz4": CompressionType.LZ4, "none": CompressionType.NONE}
 
 
@@ -169,7 +189,7 @@ def _open(path: str | Path) -> tuple[IO[bytes], McapReader]:
         return f, make_reader(f)
     except MCAP_ERRORS as e:
         f.close()
-        raise NotAnMcapError(path, str(e) or type(e).__name__) from None
+        raise NotAnMcapError(path, why_not_mcap(path, e)) from None
 
 
 def iter_messages(
@@ -192,7 +212,7 @@ def iter_messages(
                     data=message.data,
                 )
         except MCAP_ERRORS as e:
-            raise NotAnMcapError(path, str(e)) from None
+            raise NotAnMcapError(path, why_not_mcap(path, e)) from None
 
 
 def iter_clouds(
@@ -229,7 +249,7 @@ def read_metadata(path: str | Path) -> dict[str, dict[str, str]]:
         try:
             return {m.name: dict(m.metadata) for m in reader.iter_metadata()}
         except MCAP_ERRORS as e:
-            raise NotAnMcapError(path, str(e)) from None
+            raise NotAnMcapError(path, why_not_mcap(path, e)) from None
 
 
 def read_truth(path: str | Path) -> dict[str, Any] | None:
@@ -258,4 +278,4 @@ def summary(path: str | Path) -> RecordingSummary:
         try:
             return summarize(reader, str(path))
         except MCAP_ERRORS as e:
-            raise NotAnMcapError(path, str(e)) from None
+            raise NotAnMcapError(path, why_not_mcap(path, e)) from None

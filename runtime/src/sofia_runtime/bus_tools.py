@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 import logging
+import re
 import sys
 import threading
 from pathlib import Path
@@ -13,15 +14,15 @@ import zenoh
 from sofia_schemas.keys import Keys, add_robot_arg, default_robot
 from sofia_schemas.messages import ServiceStatus
 
-from .client import QueryError, ask
+from .client import QueryError, ask, is_timeout
 from .client import query as query_replies
 from .decode import describe
 from .output import add_json_option, emit
 from .service import StopFlag
-from .zenoh_config import ZenohOptions, add_zenoh_args, zenoh_config
+from .zenoh_config import ZenohOptions, add_zenoh_args, resolve, zenoh_config
 
 log = logging.getLogger("sofia.bus")
-HEALTHY = ("ok", "degraded")
+EXIT_DEGRADED = 3  # `sofia health`: the service answers but says it is degraded
 
 
 def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
@@ -59,8 +60,14 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     add_zenoh_args(p)
     p.set_defaults(func=query)
 
-    p = sub.add_parser("health", help="exit 0 when SERVICE answers its status and is healthy")
+    p = sub.add_parser(
+        "health", help="exit 0 when SERVICE answers its status and is healthy",
+        description="Ask SERVICE for its status. Exit 0 when it is ok, 3 when it is degraded (0 with "
+        "--degraded-ok), 1 when it is in error or does not answer.",
+    )  # fmt: skip
     p.add_argument("service", help="detector, calibrator, gripper, replay")
+    p.add_argument("--degraded-ok", action="store_true",
+                   help="exit 0 on degraded too (e.g. a detector before its first calibration)")  # fmt: skip
     add_robot_arg(p)
     p.add_argument(
         "--timeout", type=float, default=5.0, metavar="S", help="seconds to wait for the status (default 5)"
@@ -108,7 +115,11 @@ def echo(args: argparse.Namespace) -> int:
         session.declare_subscriber(args.key, on_sample)
         log.info("listening on %s", args.key)
         stop.wait(args.timeout or None)
-    return 0 if (count or not args.count) else 1
+    if args.count and count < args.count:
+        print(f"sofia echo: {count} of {args.count} messages on {args.key} within {args.timeout:g} s",
+              file=sys.stderr)  # fmt: skip
+        return 1
+    return 0
 
 
 def query(args: argparse.Namespace) -> int:
@@ -128,6 +139,8 @@ def query(args: argparse.Namespace) -> int:
                 s = reply.ok
                 _print(str(s.key_expr), s.payload.to_bytes(), str(s.encoding), args.json)
             elif (err := reply.err) is not None:
+                if is_timeout(err):  # Zenoh's own "Timeout": no queryable answered in time
+                    continue
                 n_err += 1
                 desc = describe(err.payload.to_bytes(), str(err.encoding))
                 error = {"key": args.key, "error": desc.get("json", desc)}
@@ -150,7 +163,9 @@ def health(args: argparse.Namespace) -> int:
                 print(f"{args.service}: {e}", file=sys.stderr)
             return 1
     emit(args, status, f"{args.service}: {status.state} {status.detail}".rstrip())
-    return 0 if status.state in HEALTHY else 1
+    if status.state == "ok" or (status.state == "degraded" and args.degraded_ok):
+        return 0
+    return EXIT_DEGRADED if status.state == "degraded" else 1
 
 
 def router(args: argparse.Namespace) -> int:
@@ -160,8 +175,28 @@ def router(args: argparse.Namespace) -> int:
         return 2
     options.mode = "router"
     stop = StopFlag()
-    with zenoh.open(zenoh_config(options)) as session:
+    try:
+        session = zenoh.open(zenoh_config(options))
+    except zenoh.ZError as e:  # e.g. the port is taken by another router
+        print(f"sofia router: error: {_listen_error(e, options)}", file=sys.stderr)
+        return 2
+    with session:
         log.info("router ready: zid %s", session.zid())
         stop.wait()
     log.info("router stopped")
     return 0
+
+
+def _listen_error(error: BaseException, options: ZenohOptions) -> str:
+    """Zenoh's listener error in one line: the endpoint and the OS's reason, without its source
+    locations (``... bound to tcp/127.0.0.1:7447: [...: Address already in use (os error 98) at ...``)."""
+    text = str(error)
+    where = re.search(r"bound to (\S+?):? \[", text)
+    reason = re.search(r"([A-Z][^:\[\]]*\(os error \d+\))", text)
+    if where is None:
+        endpoints = resolve(options).get("listen") or []
+        where_text = ", ".join(map(str, endpoints)) or "its endpoints"  # type: ignore[call-overload]
+    else:
+        where_text = where.group(1)
+    why = reason.group(1) if reason else text.split(" at /", 1)[0]
+    return f"cannot listen on {where_text}: {why[0].lower()}{why[1:]}"

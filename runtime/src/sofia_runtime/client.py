@@ -54,6 +54,11 @@ def query(
             return replies
 
 
+def is_timeout(err: zenoh.Sample | Any) -> bool:
+    """Whether an error reply is Zenoh's own query timeout (payload ``Timeout``), not a service's."""
+    return bytes(err.payload.to_bytes()) == b"Timeout"
+
+
 def ask(session: zenoh.Session, key: str, model: type[M], payload: bytes | str | None = None,
         timeout: float = 10.0) -> M:  # fmt: skip
     """The first reply to a query on ``key`` parsed as ``model``; QueryError naming the error reply
@@ -61,6 +66,8 @@ def ask(session: zenoh.Session, key: str, model: type[M], payload: bytes | str |
     for reply in query(session, key, payload, timeout):
         if reply.ok is not None:
             return model.model_validate_json(reply.ok.payload.to_bytes())
+        if reply.err is not None and is_timeout(reply.err):
+            continue
         raw = reply.err.payload.to_bytes() if reply.err is not None else b""
         try:
             err = ErrorReply.model_validate_json(raw)

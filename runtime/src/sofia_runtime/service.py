@@ -168,8 +168,9 @@ def query_message(query: zenoh.Query, model: type[M], what: str) -> M:
         raise PayloadError(f"{what} query has no payload: send a JSON {model.__name__}")
     try:
         return model.model_validate_json(payload)
-    except ValidationError as e:
-        raise PayloadError(f"{what} {clip(payload)} is not a valid {model.__name__}: {e}") from None
+    except ValidationError as e:  # one line: the fields and what was wrong, no pydantic links
+        text = bytes(payload).decode("utf-8", errors="replace")
+        raise PayloadError(f"{what} {clip(text)} is not a valid {model.__name__}: {error_text(e)}") from None
 
 
 class StatusEndpoint:

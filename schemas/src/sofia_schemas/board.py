@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import hashlib
 import json
 import math
+import os
 from functools import lru_cache
 from importlib import resources
 from pathlib import Path
@@ -13,8 +15,25 @@ import yaml
 from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
 
 from .files import load_json_or_yaml
+from .frames import BASE_FRAME
 
 DEFAULT_BOARD_FILE = "default_board.yaml"
+BOARD_ENV = "SOFIA_BOARD"  # path of the board every command and service uses without --board
+CONFIG_BOARD = Path("config") / "board.yaml"  # the lab's board, relative to the working directory
+BOARD_HELP = (
+    "board YAML/JSON (default: $SOFIA_BOARD, else config/board.yaml when present, else the package's)"
+)
+
+
+def default_board_path() -> Path | None:
+    """The board file of every command and service started without ``--board``: ``$SOFIA_BOARD``,
+    else ``config/board.yaml`` in the working directory when it exists, else None (the package's
+    board, :meth:`Board.default`). ``sofia up``, ``sofia detect``, ``detector serve``, ``viz serve``
+    and the demo all resolve it here."""
+    env = os.environ.get(BOARD_ENV, "").strip()
+    if env:
+        return Path(env)
+    return CONFIG_BOARD if CONFIG_BOARD.is_file() else None
 
 
 @lru_cache(maxsize=64)
@@ -37,7 +56,7 @@ class Board(BaseModel):
 
     model_config = ConfigDict(extra="forbid", frozen=True)
 
-    frame_id: str = "panda_link0"
+    frame_id: str = BASE_FRAME
     center: tuple[float, float] = (0.5, 0.0)
     surface_z: float = 0.0
     yaw: float = 0.0
@@ -75,6 +94,18 @@ class Board(BaseModel):
         if not isinstance(data, dict):
             raise ValueError(f"{path}: expected a mapping of board fields, got {type(data).__name__}")
         return cls.model_validate(data)
+
+    @classmethod
+    def load(cls, path: str | Path | None = None) -> Board:
+        """The board of ``path``, or without one the configured default (:func:`default_board_path`)."""
+        chosen = path or default_board_path()
+        return cls.from_file(chosen) if chosen else cls.default()
+
+    @property
+    def digest(self) -> str:
+        """12 hex digits naming this geometry (sha256 of its JSON): services report it in their
+        status, so two processes can be checked to use the same board."""
+        return hashlib.sha256(self.model_dump_json().encode()).hexdigest()[:12]
 
     @classmethod
     def default(cls) -> Board:

@@ -21,7 +21,7 @@ from sofia_schemas.messages import ArmCommand, ArmPhase, ArmResult, Detection
 from sofia_schemas.transforms import rotation_angle
 
 from .bus import Collector, wait_until
-from .launcher import Launcher, ServiceSpec
+from .launcher import Launcher, ServiceSpec, all_ready, board_args
 from .steps import sofia
 from .summary import Summary, say
 from .wording import field_text, transform_text
@@ -48,7 +48,7 @@ def _healthy(session: zenoh.Session, launchers: list[Launcher], timeout: float) 
     def ok() -> bool:
         for la in launchers:
             la.poll()
-        return all(s == "ok" for la in launchers for s in la.check_health(session).values())
+        return all(all_ready(la.check_health(session)) for la in launchers)
 
     return wait_until(ok, timeout)
 
@@ -129,7 +129,7 @@ def pick_place(session: zenoh.Session, keys: Keys, center_true: np.ndarray, summ
                 f"{res.duration_s:.0f} s", ok)  # fmt: skip
 
 
-def run_cell(out: Path, robot: str, board: Path, summary: Summary) -> None:
+def run_cell(out: Path, robot: str, board: Path | None, summary: Summary) -> None:
     """The closed loop on its own key space (``{robot}-cell``), services started and stopped here."""
     cell = f"{robot}-cell"
     keys, log_dir = Keys(cell), out / "logs-cell"
@@ -139,7 +139,7 @@ def run_cell(out: Path, robot: str, board: Path, summary: Summary) -> None:
     services = Launcher([
         ServiceSpec("arm", ["arm", "serve", "--sim", "--max-speed", str(SPEED)], "arm"),
         ServiceSpec("calibrator", ["calibrator", "serve", "--state-dir", str(out / "calibrator-cell")], "calibrator"),
-        ServiceSpec("detector", ["detector", "serve", "--board", str(board)], "detector"),
+        ServiceSpec("detector", ["detector", "serve", *board_args(board)], "detector"),
         ServiceSpec("gripper", ["gripper", "serve", "--emulate", "--object-width", f"{width_mm:.1f}"], "gripper"),
     ], log_dir, cell)  # fmt: skip
     say(f"starting the simulated cell (franky-sim, camera --sim, logs in {log_dir}) ...")

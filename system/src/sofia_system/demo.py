@@ -22,11 +22,12 @@ from sofia_runtime import zenoh_config
 from sofia_runtime.limits import ClipFilter
 from sofia_runtime.output import add_json_option, emit
 from sofia_schemas import Keys
+from sofia_schemas.board import BOARD_HELP
 from sofia_schemas.keys import default_robot
 
 from . import steps
 from .bus import wait_until
-from .launcher import Launcher, ServiceSpec
+from .launcher import Launcher, ServiceSpec, all_ready, board_args
 from .summary import Summary, say
 
 log = logging.getLogger("sofia.demo")
@@ -49,8 +50,7 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     p.add_argument("--n-poses", type=int, default=12, metavar="N",
                    help="robot poses of a new calibration recording (default 12)")  # fmt: skip
     p.add_argument("--poses", type=int, dest="n_poses", help=argparse.SUPPRESS)  # old name of --n-poses
-    p.add_argument("--board", type=Path, default=Path("config/board.yaml"),
-                   help="board YAML/JSON the detector uses (default config/board.yaml)")  # fmt: skip
+    p.add_argument("--board", type=Path, default=None, help=BOARD_HELP)
     p.add_argument("--robot", default=None, help="robot id of every key (default $SOFIA_ROBOT or panda)")
     p.add_argument("--no-cell", action="store_true",
                    help="skip the closed loop in the simulated cell (franky-sim: calibrate, detect, pick and place)")  # fmt: skip
@@ -109,7 +109,7 @@ def make_recordings(recordings: Path, n_scenes: int, n_poses: int) -> tuple[Path
     return scenes, calib
 
 
-def run_demo(out: Path, recordings: Path, n_scenes: int = 12, n_poses: int = 12, board: Path = Path("config/board.yaml"),
+def run_demo(out: Path, recordings: Path, n_scenes: int = 12, n_poses: int = 12, board: Path | None = None,
              robot: str | None = None, cell: bool = True, summary: Summary | None = None) -> int:  # fmt: skip
     """Every step of the demo; the launcher's log lines go to ``out/logs/launcher.log``."""
     out.mkdir(parents=True, exist_ok=True)
@@ -119,13 +119,13 @@ def run_demo(out: Path, recordings: Path, n_scenes: int = 12, n_poses: int = 12,
         )
 
 
-def _run(out: Path, recordings: Path, n_scenes: int, n_poses: int, board: Path, robot: str, cell: bool,
+def _run(out: Path, recordings: Path, n_scenes: int, n_poses: int, board: Path | None, robot: str, cell: bool,
          summary: Summary) -> int:  # fmt: skip
     keys = Keys(robot)
     t0 = time.monotonic()
     scenes_mcap, calib_mcap = make_recordings(recordings, n_scenes, n_poses)
     specs = [
-        ServiceSpec("detector", ["detector", "serve", "--board", str(board)], "detector"),
+        ServiceSpec("detector", ["detector", "serve", *board_args(board)], "detector"),
         ServiceSpec(
             "calibrator", ["calibrator", "serve", "--state-dir", str(out / "calibrator")], "calibrator"
         ),
@@ -143,7 +143,7 @@ def _run(out: Path, recordings: Path, n_scenes: int, n_poses: int, board: Path, 
 
             def all_healthy() -> bool:
                 launcher.poll()
-                return all(s == "ok" for s in launcher.check_health(session).values())
+                return all_ready(launcher.check_health(session))
 
             healthy = wait_until(all_healthy, 90)
             say(launcher.table())

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import argparse
 import logging
+import math
 import os
 import shutil
 import subprocess
@@ -19,6 +20,7 @@ from pathlib import Path
 from typing import IO, Any
 
 import zenoh
+from sofia_runtime.cli import EXIT_USAGE
 from sofia_runtime.client import QueryError, ask
 from sofia_runtime.output import add_json_option, emit
 from sofia_runtime.ros2.cli import enabled as ros2_enabled
@@ -30,6 +32,7 @@ from sofia_runtime.zenoh_config import (
     add_zenoh_args,
     zenoh_config,
 )
+from sofia_schemas.board import BOARD_HELP, default_board_path
 from sofia_schemas.keys import Keys, default_robot
 from sofia_schemas.messages import ServiceStatus
 
@@ -109,11 +112,26 @@ class Launcher:
             log.warning(
                 "%s exited with code %d (see %s)", m.spec.name, code, self.log_dir / f"{m.spec.name}.log"
             )
-            if self.restart:
+            if code == EXIT_USAGE:  # an input error (a busy port, a bad option): a restart repeats it
+                m.state, m.next_start = "failed", math.inf
+                log.error("%s failed: %s (not restarted)", m.spec.name, self.last_line(m.spec.name))
+            elif self.restart:
                 m.restarts += 1
                 m.next_start = now + m.backoff
                 m.backoff = min(MAX_BACKOFF_S, m.backoff * 2)
                 log.info("restarting %s in %.0f s (restart %d)", m.spec.name, m.next_start - now, m.restarts)
+
+    def last_line(self, name: str) -> str:
+        """The last non-empty line of ``name``'s log (a failed command's one-line error)."""
+        try:
+            lines = (self.log_dir / f"{name}.log").read_text(errors="replace").splitlines()
+        except OSError:
+            return "no log"
+        return next((line for line in reversed(lines) if line.strip()), "empty log")
+
+    def failed(self) -> list[str]:
+        """Processes that exited with an input error and are not restarted."""
+        return [name for name, m in self.procs.items() if m.state == "failed"]
 
     def check_health(self, session: zenoh.Session, timeout: float = 1.0) -> dict[str, str]:
         keys = Keys(self.robot)
@@ -162,6 +180,17 @@ class Launcher:
             m.popen = None
 
 
+# states in which a service counts as up for the demo's and the cell's gates: the detector is
+# degraded by design until the first calibration maps its camera-frame clouds
+READY_STATES = {"detector": ("ok", "degraded")}
+
+
+def all_ready(states: dict[str, str]) -> bool:
+    """Whether every service of ``states`` (:meth:`Launcher.check_health`) is up: ok, running (no
+    status), or a state :data:`READY_STATES` allows for it."""
+    return all(state in (*READY_STATES.get(name, ("ok",)), "running") for name, state in states.items())
+
+
 def health_table(rows: list[dict[str, Any]]) -> str:
     """The health table ``sofia up`` prints: service, pid, state, restarts."""
     lines = [f"{'service':<12}{'pid':>8}  {'state':<12}{'restarts':>8}"]
@@ -169,6 +198,13 @@ def health_table(rows: list[dict[str, Any]]) -> str:
         pid = "-" if r["pid"] is None else str(r["pid"])
         lines.append(f"{r['service']:<12}{pid:>8}  {r['state']:<12}{r['restarts']:>8}")
     return "\n".join(lines)
+
+
+def board_args(board: Path | None) -> list[str]:
+    """``--board FILE`` of the detector: the given board, else the configured default
+    (:func:`~sofia_schemas.board.default_board_path`), else nothing (the package's board)."""
+    chosen = board or default_board_path()
+    return ["--board", str(chosen)] if chosen else []
 
 
 def default_specs(args: argparse.Namespace) -> list[ServiceSpec]:
@@ -179,7 +215,7 @@ def default_specs(args: argparse.Namespace) -> list[ServiceSpec]:
         listen += ["--listen", ROS2_ROUTER_LISTEN]
     specs = [ServiceSpec("router", ["router", *listen])]
     if "detector" in args.services:
-        specs.append(ServiceSpec("detector", ["detector", "serve", "--board", str(args.board)], "detector"))
+        specs.append(ServiceSpec("detector", ["detector", "serve", *board_args(args.board)], "detector"))
     if "calibrator" in args.services:
         specs.append(
             ServiceSpec(
@@ -206,8 +242,7 @@ def add_up_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--services", default="detector,calibrator,gripper", type=lambda s: s.split(","),
                    help="comma-separated services to run (default: detector,calibrator,gripper; "
                    "add camera for the D435, arm for the Franka)")  # fmt: skip
-    p.add_argument("--board", type=Path, default=Path("config/board.yaml"),
-                   help="board YAML/JSON the detector uses (default config/board.yaml)")  # fmt: skip
+    p.add_argument("--board", type=Path, default=None, help=BOARD_HELP)
     p.add_argument("--state-dir", type=Path, default=Path("var"),
                    help="folder of the services' state, e.g. calibration samples in DIR/calibrator (default var)")  # fmt: skip
     p.add_argument("--log-dir", type=Path, default=Path("var/log"),
@@ -246,6 +281,10 @@ def up(args: argparse.Namespace) -> int:
         with zenoh.open(zenoh_config(ZenohOptions.from_args(args))) as session:
             while not stop.wait(1.0):
                 launcher.poll()
+                if "router" in launcher.failed():
+                    print(f"sofia up: error: the router did not start: {launcher.last_line('router')}",
+                          file=sys.stderr)  # fmt: skip
+                    return EXIT_USAGE
                 launcher.check_health(session)
                 rows = launcher.rows()
                 if rows != shown:

@@ -15,6 +15,7 @@ from typing import Literal
 
 import numpy as np
 from sofia_schemas import Board, pointcloud
+from sofia_schemas.frames import BASE_FRAME, CAMERA_FRAME
 from sofia_schemas.keys import TOPIC_BLOB, TOPIC_CAMERA_POINTS, TOPIC_FLANGE_POSE, TOPIC_POINTS
 from sofia_schemas.messages import BlobObservation, FlangePose
 from sofia_schemas.transforms import interpolate_poses
@@ -28,7 +29,7 @@ log = logging.getLogger(__name__)
 
 START_NS = 1_700_000_000_000_000_000  # board scenes
 CALIBRATION_START_NS = START_NS - 3_600_000_000_000  # calibration sessions: an hour earlier
-CAMERA_FRAME = "camera_color_optical_frame"
+
 TOPIC_TF, TOPIC_TF_STATIC = "/tf", "/tf_static"
 SCENE_KINDS = ("one", "empty", "nonred", "two", "mixed")
 MIXED_CYCLE: tuple[SceneKind, ...] = ("one", "one", "two", "nonred", "one", "empty")
@@ -132,7 +133,7 @@ def write_calibration_session(
     seed: int = 0,
     T_flange_cam: np.ndarray | None = None,
     clouds: bool = True,
-    frame_id: str = "panda_link0",
+    frame_id: str = BASE_FRAME,
 ) -> CalibrationSession:
     """Render a calibration session and write it to ``path``; returns the session (with truth)."""
     rng = np.random.default_rng(seed)

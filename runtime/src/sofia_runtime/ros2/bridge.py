@@ -33,6 +33,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import zenoh
+from sofia_schemas.frames import BASE_FRAME, CAMERA_FRAME, FLANGE_FRAME
 from sofia_schemas.keys import ENCODING_CDR_POINTCLOUD2, ENCODING_CDR_TRANSFORM, Keys
 from sofia_schemas.messages import CalibrationResult, Detection, ErrorReply, GripperState, PickTarget
 from sofia_schemas.ros2 import convert as cv
@@ -40,12 +41,13 @@ from sofia_schemas.ros2.typesupport import decode, encode
 from sofia_schemas.rosmsg import decode_flange_pose, encode_flange_pose
 
 from ..client import fetch_latest
+from .failures import JSON_QUERY, Request, detect_failure, json_query_failure
 from .rmw import STATIC_QOS, Attachment, Graph, Node, Qos, reply, sample_attachment
 from .tfchain import TfChain
 
 log = logging.getLogger("sofia.ros2")
 FORWARDED = b"sofia-ros2-forwarded"
-JSON_QUERY = "sofia_msgs/srv/JsonQuery"
+
 CALIBRATOR_OPS = ("add", "remove", "reset", "solve", "save", "samples", "result")
 CLOUD_QOS = Qos(depth=5, block=True)
 
@@ -54,11 +56,11 @@ CLOUD_QOS = Qos(depth=5, block=True)
 class BridgeConfig:
     robot: str
     domain: int | None = None
-    camera_frame: str = "camera_color_optical_frame"  # child frame of the calibration on /tf_static
+    camera_frame: str = CAMERA_FRAME  # child frame of the calibration on /tf_static
     camera_topic: str = "/camera/camera/depth/color/points"  # ROS 2 cloud taken in ("" = none)
     tf_input: bool = True  # compose the flange pose from ROS 2 /tf
-    base_frame: str = "panda_link0"
-    flange_frame: str = "panda_link8"
+    base_frame: str = BASE_FRAME
+    flange_frame: str = FLANGE_FRAME
     detect_timeout_s: float = 10.0
 
 
@@ -75,9 +77,8 @@ class Bridge:
         self.graph = Graph(session, config.domain)
         self.counters = {"out": 0, "in": 0, "requests": 0, "errors": 0}
         self.last_error = ""
-        self.requests: queue.Queue[tuple[zenoh.Query, Attachment, bytes, Callable[[bytes], bytes]]] = (
-            queue.Queue()
-        )
+        # (query, its attachment, request CDR, handler CDR -> CDR, error message -> response CDR)
+        self.requests: queue.Queue[Request] = queue.Queue()
         ns = f"/sofia/{config.robot}"
         self.nodes: list[Node] = []
         detector, calibrator = self._node("sofia_detector"), self._node("sofia_calibrator")
@@ -94,13 +95,14 @@ class Bridge:
         }
         self.pub = pub
         self.detect_service = detector.service(
-            f"{ns}/detect_object", cv.DETECT_OBJECT, self._on_request(self.detect)
+            f"{ns}/detect_object", cv.DETECT_OBJECT, self._on_request(self.detect, detect_failure)
         )
         for op in CALIBRATOR_OPS:  # sofia_msgs/srv/JsonQuery: the calibrator's queryables, JSON in and out
             key = keys.calibrator_op(op)
             calibrator.service(
-                f"{ns}/calibrator/{op}", JSON_QUERY, self._on_request(functools.partial(self.json_query, key))
-            )
+                f"{ns}/calibrator/{op}", JSON_QUERY,
+                self._on_request(functools.partial(self.json_query, key), json_query_failure),
+            )  # fmt: skip
         self.chain = TfChain(config.base_frame, config.flange_frame)
         if config.camera_topic:
             bus.subscription(config.camera_topic, cv.POINTCLOUD2, self._on_ros_cloud, CLOUD_QOS)
@@ -206,37 +208,45 @@ class Bridge:
             self.counters["in"] += 1
 
     # --- detect_object ----------------------------------------------------
-    def _on_request(self, handle: Callable[[bytes], bytes]) -> Callable[[zenoh.Query], None]:
-        """A service's queryable callback: hands the request to the worker (``handle``: CDR -> CDR)."""
+    def _on_request(
+        self, handle: Callable[[bytes], bytes], failure: Callable[[str], bytes]
+    ) -> Callable[[zenoh.Query], None]:
+        """A service's queryable callback: hands the request to the worker (``handle``: CDR -> CDR;
+        ``failure``: the response CDR saying what went wrong, as a ROS service answers errors:
+        rmw_zenoh's client drops error replies and would wait for its query timeout)."""
 
         def on_query(query: zenoh.Query) -> None:
             att = sample_attachment(query)
-            if att is None:
+            if att is None:  # not an rmw_zenoh client (it always sends one): a plain Zenoh error
                 query.reply_err("rmw_zenoh service request without its attachment (sequence number, gid)")
                 query.drop()
                 return
             payload = query.payload.to_bytes() if query.payload is not None else b""
-            self.requests.put((query, att, payload, handle))
+            self.requests.put((query, att, payload, handle, failure))
 
         return on_query
 
     def _serve(self) -> None:
         while not self._stop.is_set():
             try:
-                query, att, payload, handle = self.requests.get(timeout=0.2)
+                query, att, payload, handle, failure = self.requests.get(timeout=0.2)
             except queue.Empty:
                 continue
             self.counters["requests"] += 1
             try:
-                reply(query, att, handle(payload))
-            except Exception as e:  # still answer: a ROS client must not hang
+                response = handle(payload)
+            except Exception as e:  # still answer, in the response: a ROS client must not hang
                 log.exception("service %s", query.key_expr)
-                query.reply_err(f"{type(e).__name__}: {e}")
-                query.drop()
+                self._error(f"{query.key_expr}: {type(e).__name__}: {e}")
+                response = failure(f"{type(e).__name__}: {e}")
+            reply(query, att, response)
 
     def json_query(self, key: str, request_cdr: bytes) -> bytes:
         """A ``JsonQuery`` request forwarded to the SofIA queryable ``key``."""
-        request = decode(request_cdr, f"{JSON_QUERY}_Request")
+        try:
+            request = decode(request_cdr, f"{JSON_QUERY}_Request")
+        except ValueError as e:
+            return json_query_failure(f"the request is not a {JSON_QUERY} request: {e}")
         payload = request.json.encode() if request.json else None
         response = cv.new(f"{JSON_QUERY}_Response", success=False, message=f"no answer on {key}", json="")
         for r in self.session.get(key, payload=payload, timeout=self.config.detect_timeout_s):

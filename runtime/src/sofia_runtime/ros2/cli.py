@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import os
 
+from sofia_schemas.frames import BASE_FRAME, CAMERA_FRAME, FLANGE_FRAME
 from sofia_schemas.keys import add_robot_arg, default_robot
 
 from ..output import add_json_option, emit
@@ -19,7 +20,7 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     serve.add_argument("--domain", type=int, default=None, help="ROS domain id (default $ROS_DOMAIN_ID or 0)")
     serve.add_argument(
         "--camera-frame",
-        default="camera_color_optical_frame",
+        default=CAMERA_FRAME,
         help="child frame of the calibration on /tf_static (the clouds' frame_id)",
     )
     serve.add_argument(
@@ -29,10 +30,10 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     )
     serve.add_argument("--no-tf-input", action="store_true", help="do not take the flange pose from /tf")
     serve.add_argument(
-        "--base-frame", default="panda_link0", help="robot base frame on /tf (default panda_link0)"
+        "--base-frame", default=BASE_FRAME, help="robot base frame on /tf (default %(default)s)"
     )
     serve.add_argument(
-        "--flange-frame", default="panda_link8", help="flange frame on /tf (default panda_link8)"
+        "--flange-frame", default=FLANGE_FRAME, help="flange frame on /tf (default %(default)s)"
     )
     add_zenoh_args(serve)
     serve.set_defaults(func=_serve)

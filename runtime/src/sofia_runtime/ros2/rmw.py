@@ -77,11 +77,21 @@ STATIC_QOS = Qos(transient_local=True, depth=1)
 
 @dataclass(frozen=True)
 class Attachment:
+    """rmw_zenoh's attachment: compact (0.2.4 and later) or ``keyed`` (0.2.0-0.2.3, each field
+    preceded by its name). SofIA publishes the compact form and answers a request in its form."""
+
     sequence_number: int
     source_timestamp_ns: int
     source_gid: bytes
+    keyed: bool = False
 
     def encode(self) -> bytes:
+        if self.keyed:
+            return (
+                _KEYED + struct.pack("<q", self.sequence_number)
+                + b"\x10source_timestamp" + struct.pack("<q", self.source_timestamp_ns)
+                + b"\x0asource_gid" + bytes([len(self.source_gid)]) + self.source_gid
+            )  # fmt: skip
         return struct.pack("<qqB", self.sequence_number, self.source_timestamp_ns, GID_SIZE) + self.source_gid
 
     @classmethod
@@ -109,7 +119,7 @@ class Attachment:
             else:
                 values.append(struct.unpack_from("<q", raw, pos)[0])
                 pos += 8
-        return cls(int(values[0]), int(values[1]), bytes(values[2]))
+        return cls(int(values[0]), int(values[1]), bytes(values[2]), keyed=True)
 
 
 def sample_attachment(sample: zenoh.Sample | zenoh.Query) -> Attachment | None:
@@ -238,7 +248,7 @@ class Publisher:
 
 def reply(query: zenoh.Query, request: Attachment, cdr: bytes) -> None:
     """Answer a service request: the response CDR, the request's sequence number and client gid."""
-    att = Attachment(request.sequence_number, time.time_ns(), request.source_gid)
+    att = Attachment(request.sequence_number, time.time_ns(), request.source_gid, keyed=request.keyed)
     try:
         query.reply(query.key_expr, cdr, attachment=att.encode())
     finally:

@@ -7,6 +7,7 @@ from typing import Literal
 import numpy as np
 from pydantic import Field
 
+from ..frames import CAMERA_FRAME, FLANGE_FRAME
 from .base import Finite, Message, Quat, Vec3
 
 CorrectionModel = Literal["rigid", "depth_scale", "ray_scale", "depth_scale_offset"]
@@ -118,15 +119,16 @@ class CalibrationResult(Message):
     """``T_flange_cam``: maps camera optical frame points into the flange frame (metres)."""
 
     stamp_ns: int
-    parent_frame: str = "panda_link8"
-    child_frame: str = "panda_camera"
+    parent_frame: str = FLANGE_FRAME
+    child_frame: str = CAMERA_FRAME
     matrix: list[list[float]]  # 4x4 T_flange_cam
     translation: Vec3
     quaternion_xyzw: Quat
     rpy: Vec3  # roll, pitch, yaw, radians
     target_base: Vec3  # blob position in the base frame
     spread_mm: Vec3  # per-axis max - min of mapped blob over inliers
-    passes: bool  # spread < 10 mm on every axis (the lab's criterion)
+    passes: bool  # spread < 10 mm on every axis (the lab's criterion); false when undetermined (no
+    # redundancy, or a translation 1-sigma beyond 10 mm: see warnings)
     n_samples: int
     inliers: list[int]
     outliers: list[int]

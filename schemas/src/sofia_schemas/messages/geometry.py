@@ -7,6 +7,7 @@ import math
 import numpy as np
 from pydantic import Field, field_validator
 
+from ..frames import BASE_FRAME, CAMERA_FRAME, FLANGE_FRAME
 from .base import Message, Quat, Vec3
 
 
@@ -14,8 +15,8 @@ class FlangePose(Message):
     """Stamped pose of the flange in the base frame: ``T_base_flange`` (frame_id -> child_frame_id)."""
 
     stamp_ns: int
-    frame_id: str = "panda_link0"
-    child_frame_id: str = "panda_link8"
+    frame_id: str = BASE_FRAME
+    child_frame_id: str = FLANGE_FRAME
     translation: Vec3
     rotation_xyzw: Quat
 
@@ -35,8 +36,8 @@ class FlangePose(Message):
 
     @classmethod
     def from_matrix(
-        cls, T_base_flange: np.ndarray, stamp_ns: int, frame_id: str = "panda_link0",
-        child_frame_id: str = "panda_link8",
+        cls, T_base_flange: np.ndarray, stamp_ns: int, frame_id: str = BASE_FRAME,
+        child_frame_id: str = FLANGE_FRAME,
     ) -> FlangePose:  # fmt: skip
         from ..transforms import as_transforms, matrix_to_quat_xyzw
 
@@ -67,7 +68,7 @@ class BlobObservation(Message):
     """Position of the calibration blob in the camera optical frame."""
 
     stamp_ns: int
-    frame_id: str = "camera_color_optical_frame"
+    frame_id: str = CAMERA_FRAME
     position: Vec3  # metres, camera optical frame
     confidence: float = Field(1.0, ge=0.0, le=1.0)
     n_pixels: int = 0

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from ..frames import BASE_FRAME
 from .base import Message, Quat, Vec3
 
 
@@ -14,7 +15,7 @@ class PickTarget(Message):
     """
 
     stamp_ns: int
-    frame_id: str = "panda_link0"
+    frame_id: str = BASE_FRAME
     object_center: Vec3
     grasp_translation: Vec3  # flange position at the grasp
     pregrasp_translation: Vec3  # flange position above the grasp

@@ -19,6 +19,7 @@ from typing import Any
 
 import numpy as np
 
+from ..frames import BASE_FRAME
 from ..messages import CalibrationResult, DetectedObject, Detection, FlangePose, GripperState, PickTarget
 from .typesupport import new
 
@@ -146,7 +147,7 @@ def joint_state(state: GripperState) -> Any:
                position=arr(opening_m), velocity=arr(state.velocity_rad_s), effort=arr(state.force_n))  # fmt: skip
 
 
-def detect_response(det: Detection | None, error: str = "", frame_id: str = "panda_link0") -> Any:
+def detect_response(det: Detection | None, error: str = "", frame_id: str = BASE_FRAME) -> Any:
     """``sofia_msgs/srv/DetectObject_Response`` of a detection (or of an error message)."""
     zero = (0.0, 0.0, 0.0)
     if det is None:

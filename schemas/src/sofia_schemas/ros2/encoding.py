@@ -12,6 +12,7 @@ from collections.abc import Callable
 from typing import Any
 
 from ..errors import PayloadError
+from ..frames import FLANGE_FRAME
 from ..messages import FlangePose
 from ..rosmsg import TRANSFORM_STAMPED, decode_flange_pose
 from .convert import POINTCLOUD2, POSE_STAMPED, stamp_ns
@@ -26,7 +27,7 @@ def encoding_type(encoding: object) -> str:
     return text[len(CDR_PREFIX) :].strip() if text.startswith(CDR_PREFIX) else ""
 
 
-def decode_flange(payload: bytes, encoding: object = None, flange_frame: str = "panda_link8") -> FlangePose:
+def decode_flange(payload: bytes, encoding: object = None, flange_frame: str = FLANGE_FRAME) -> FlangePose:
     """A base -> flange pose from CDR TransformStamped, CDR PoseStamped (child ``flange_frame``) or JSON."""
     typename = encoding_type(encoding)
     if typename in ("", TRANSFORM_STAMPED):

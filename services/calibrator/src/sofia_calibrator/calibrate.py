@@ -6,6 +6,7 @@ from dataclasses import dataclass, field, replace
 from typing import Literal
 
 import numpy as np
+from sofia_schemas.frames import CAMERA_FRAME, FLANGE_FRAME
 from sofia_schemas.transforms import ORTHONORMAL_TOL, as_points, as_transforms
 
 from . import correction as cc
@@ -19,8 +20,8 @@ from .noise import ISOTROPIC_PRIOR_M, NoiseModel, camera_sigma
 from .solver import LOSSES
 
 MIN_SAMPLES = 3
-PARENT_FRAME = "panda_link8"  # the lab's launch file: flange
-CHILD_FRAME = "panda_camera"
+PARENT_FRAME = FLANGE_FRAME  # the lab's launch file: flange
+CHILD_FRAME = CAMERA_FRAME
 MAX_ADVICE = 5  # at most this many samples named as the removal that would meet the lab criterion
 
 
@@ -214,7 +215,11 @@ def calibrate(
             f"per-axis spread with every sample {np.round(everything.spread_mm, 1).tolist()} mm, without "
             f"samples {outliers} {np.round(cleaned.spread_mm, 1).tolist()} mm"
         )
-    if not passes:
+    if chosen.undetermined:
+        warnings.append(
+            f"the lab criterion is undetermined (passes is false): {chosen.undetermined}; add poses"
+        )
+    elif not passes:
         worst = chosen.samples[int(np.argmax(loo[chosen_idx]))]
         tail = (
             f"removing samples {advice} would meet it (advice only: nothing was removed)"

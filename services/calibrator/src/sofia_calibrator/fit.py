@@ -49,8 +49,25 @@ class Fit:
     solution: Solution | None = None
 
     @property
+    def undetermined(self) -> str:
+        """Why these samples cannot support the lab's verdict, '' when they can: no redundancy (the
+        spread of a fit with no degrees of freedom left is zero by construction), or a translation
+        1-sigma (flange axes) beyond the criterion's limit."""
+        n_free = 3 * len(self.samples) - self.covariance.shape[0]
+        if n_free <= 0:
+            return f"{len(self.samples)} samples leave no redundancy, so the spread is not a measurement"
+        worst = float(np.max(self.std_translation_mm))
+        if not worst < dg.LAB_SPREAD_LIMIT_MM:
+            return (
+                f"the translation's 1-sigma {worst:.1f} mm is beyond the {dg.LAB_SPREAD_LIMIT_MM:.0f} mm "
+                "limit, so the spread cannot show it is met"
+            )
+        return ""
+
+    @property
     def passes(self) -> bool:
-        return bool((self.spread_mm < dg.LAB_SPREAD_LIMIT_MM).all())
+        """The lab's criterion (spread < 10 mm on every axis), False when :attr:`undetermined`."""
+        return not self.undetermined and bool((self.spread_mm < dg.LAB_SPREAD_LIMIT_MM).all())
 
     @property
     def translation(self) -> np.ndarray:

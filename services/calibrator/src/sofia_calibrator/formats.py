@@ -1,7 +1,8 @@
 """The calibration as the lab needs it: bus message, JSON, YAML, ROS 1 and ROS 2 static transforms.
 
 Every output names the direction: ``T_flange_cam`` (parent ``panda_link8`` = flange, child
-``panda_camera``) maps camera-frame points into the flange frame; metres; quaternions x y z w.
+``camera_color_optical_frame`` = the clouds' frame, :mod:`sofia_schemas.frames`) maps camera-frame
+points into the flange frame; metres; quaternions x y z w.
 """
 
 from __future__ import annotations
@@ -28,7 +29,7 @@ def ros1_static_transform(
     t, q = T_flange_cam[:3, 3], matrix_to_quat_xyzw(T_flange_cam[:3, :3])
     args = " ".join(_f(v) for v in [*t, *q])
     return (
-        f'<node pkg="tf" type="static_transform_publisher" name="camera_link_broadcaster" '
+        f'<node pkg="tf" type="static_transform_publisher" name="camera_optical_broadcaster" '
         f'args="{args} {parent} {child} 100" />'
     )
 

@@ -17,11 +17,12 @@ import numba
 import numpy as np
 from sofia_schemas import pointcloud
 from sofia_schemas.cloud import XYZRGB_FIELDS, PointCloud2
+from sofia_schemas.frames import CAMERA_FRAME
 
 from .intrinsics import Intrinsics
 from .shm import CloudBuffers
 
-FRAME_ID = "camera_color_optical_frame"
+FRAME_ID = CAMERA_FRAME
 POINT_STEP = 16
 
 

@@ -8,6 +8,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+from sofia_schemas.frames import CAMERA_FRAME
 
 from .camera_info import encode_camera_info
 from .clock import ClockMap
@@ -111,7 +112,7 @@ class CloudPipeline:
         return Output(cloud, encode_camera_info(intr, stamp_ns, self.frame_id), meta, build_ms, attachment)
 
 
-def warm_kernels(frame_id: str = "camera_color_optical_frame") -> None:
+def warm_kernels(frame_id: str = CAMERA_FRAME) -> None:
     """Compile the registration and the cloud writer on a tiny frame, or load them from numba's
     cache (``scripts/install.sh`` runs this once, so a fresh install's first camera start does not
     spend seconds compiling)."""

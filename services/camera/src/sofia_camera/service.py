@@ -37,7 +37,7 @@ from .intrinsics import d435_spec
 from .pipeline import CloudPipeline
 from .processing import FilterChain
 from .shm import CloudBuffers
-from .streams import FramePair, FrameSource
+from .streams import FramePair, FrameSource, wait_pair
 
 log = logging.getLogger("sofia.camera")
 RETRY_S = 1.0
@@ -99,9 +99,10 @@ class CameraService:
                 continue
             first = time.monotonic() - self._opened_at < FIRST_FRAME_S
             timeout = FIRST_FRAME_S if first else self.settings.frame_timeout_s
-            pair = self.source.wait_pair(timeout, self.settings.max_skew_ms)
+            pair = wait_pair(self.source, timeout, self.settings.max_skew_ms, stop)
             if pair is None:
-                self._no_frame(timeout)
+                if not stop.is_set():
+                    self._no_frame(timeout)
                 continue
             try:
                 self.handle(pair)

@@ -127,3 +127,21 @@ class SensorPair:
             while self.colors and self.colors[0].get_timestamp() < color.get_timestamp():
                 self.colors.popleft()
         return FramePair(depth.as_depth_frame(), color.as_video_frame() if color else None, skew, arrived)
+
+
+STOP_POLL_S = 0.25  # frames are waited for in slices this long, so a stop is seen within one
+
+
+def wait_pair(source: FrameSource, timeout: float, max_skew_ms: float, stop: Any) -> FramePair | None:
+    """The next frame pair of ``source`` within ``timeout`` s, waited for in slices of
+    ``STOP_POLL_S`` so that a set ``stop`` event (SIGTERM) ends the wait within a slice (None on
+    timeout or stop)."""
+    deadline = time.monotonic() + timeout
+    while not stop.is_set():
+        remaining = deadline - time.monotonic()
+        if remaining <= 0:
+            return None
+        pair = source.wait_pair(min(remaining, STOP_POLL_S), max_skew_ms)
+        if pair is not None:
+            return pair
+    return None

@@ -12,6 +12,7 @@ from pathlib import Path
 from sofia_runtime.output import add_json_option
 from sofia_runtime.zenoh_config import ZenohOptions, add_zenoh_args
 from sofia_schemas import Board
+from sofia_schemas.board import BOARD_HELP
 from sofia_schemas.keys import add_robot_arg, default_robot
 from sofia_schemas.messages import Detection
 
@@ -28,7 +29,7 @@ log = logging.getLogger("sofia.detect")
 def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     d = sub.add_parser("detect", help="detect the objects on the board in cloud files")
     d.add_argument("files", nargs="+", type=Path, metavar="FILE", help=".mcap, .pcd, .ply or .npy")
-    d.add_argument("--board", type=Path, help="board YAML/JSON (default: the package's board)")
+    d.add_argument("--board", type=Path, help=BOARD_HELP)
     add_json_option(d, "one object per cloud and line")
     d.add_argument(
         "--plot", type=Path, metavar="OUT.png",
@@ -43,7 +44,7 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     s = sub.add_parser("detector", help="the detector service")
     ss = s.add_subparsers(dest="detector_cmd", required=True, metavar="ACTION")
     serve = ss.add_parser("serve", help="run the detector service on Zenoh")
-    serve.add_argument("--board", type=Path, help="board YAML/JSON (default: the package's board)")
+    serve.add_argument("--board", type=Path, help=BOARD_HELP)
     serve.add_argument(
         "--transform", type=Path, metavar="FILE", help="T_flange_cam YAML/JSON (else the calibrator's)"
     )
@@ -79,7 +80,7 @@ def _confidence(text: str) -> float:
 
 
 def _board(path: Path | None) -> Board:
-    return Board.from_file(path) if path else Board.default()
+    return Board.load(path)
 
 
 def _serve(args: argparse.Namespace) -> int:
@@ -111,7 +112,7 @@ def _summary(fc: FileCloud, det: Detection) -> str:
     return "\n".join(lines)
 
 
-def _record(path: Path, fc: FileCloud, det: Detection) -> dict[str, object]:
+def _record(path: Path, fc: FileCloud, det: Detection, board_digest: str) -> dict[str, object]:
     return {
         "file": str(path),
         "source": fc.source,
@@ -124,6 +125,7 @@ def _record(path: Path, fc: FileCloud, det: Detection) -> dict[str, object]:
         "board_center": det.board_center,
         "transform": det.transform,
         "detail": det.detail,
+        "board": board_digest,
     }
 
 
@@ -156,7 +158,7 @@ def _detect_all(args: argparse.Namespace) -> int:
                     raise WrongCloud(fc.source, why)
                 if fc.transform:
                     det = det.model_copy(update={"transform": fc.transform})
-                rec = _record(path, fc, det)
+                rec = _record(path, fc, det, board.digest)
                 print(json.dumps(rec) if args.json else _summary(fc, det), flush=True)
                 if args.plot:
                     from .plot import plot_detection

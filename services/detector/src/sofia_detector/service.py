@@ -34,7 +34,7 @@ from sofia_runtime.service import StatusEndpoint, StopFlag, query_payload, reply
 from sofia_runtime.shm import SharedReader
 from sofia_runtime.stamps import StampCheck
 from sofia_runtime.zenoh_config import ZenohOptions, zenoh_config
-from sofia_schemas import Board, pointcloud
+from sofia_schemas import Board, frames, pointcloud
 from sofia_schemas.keys import ENCODING_JSON, Keys
 from sofia_schemas.messages import CalibrationResult, Detection, ServiceStatus, now_ns
 from sofia_schemas.messages.calibration import CameraCorrection, correction_applied
@@ -63,7 +63,7 @@ class ServiceConfig:
     params: DetectorParams = field(default_factory=DetectorParams)
     pick: PickParams = field(default_factory=PickParams)
     backlog: int = 1  # clouds kept while busy: 1 keeps only the latest; more absorb a short stall
-    camera_frames: tuple[str, ...] = ("camera_color_optical_frame",)  # frame ids mapped with T_flange_cam
+    camera_frames: tuple[str, ...] = (frames.CAMERA_FRAME,)  # frame ids mapped with T_flange_cam
     pose_wait_s: float = POSE_WAIT_S  # how long a camera cloud waits for the flange pose of its stamp
 
 
@@ -264,7 +264,7 @@ class Detector:
             service="detector", stamp_ns=now_ns(), state=state, detail=dropped or detail,  # type: ignore[arg-type]
             counters=counters,
             info={
-                "board_frame": self.board.frame_id, "transform": transform,
+                "board_frame": self.board.frame_id, "board": self.board.digest, "transform": transform,
                 "flange_poses": len(self.flange), "last_detect_ms": round(self.last_ms, 3),
             },
         )  # fmt: skip

@@ -5,6 +5,11 @@ Every exchange checks the communication result and the status packet's error byt
 what failed. The state block is read with one Sync Read (Protocol 2.0) or Bulk Read (Protocol
 1.0) per call. Hardware-error bits of the status error byte (P2 alert bit, P1 overheat /
 overload / voltage) are not errors of the exchange: they are kept in ``last_status_error``.
+
+Reads take the status packet themselves (``rxPacket``) and check its parameter count against the
+bytes asked for: Protocol 2.0 status packets carry no request id, so a late reply to an earlier
+request (a host stalled past its timeout) or a cut packet would otherwise decode as zeros. Such a
+reply is a :class:`~sofia_gripper.errors.CommFailed` and the line's buffered input is dropped.
 """
 
 from __future__ import annotations
@@ -19,6 +24,10 @@ from dynamixel_sdk import COMM_SUCCESS, PacketHandler, PortHandler
 
 from .control_table import ALERT_BIT_P2, HW_ERROR_MASK_P1, STATE_BLOCK, Protocol, decode_int, fields
 from .errors import CommFailed, LineLost, ServoRefused
+
+# status packet layout (dynamixel_sdk's PKT_* of each protocol): id, length, error, first data byte
+P2_ID, P2_LEN_L, P2_LEN_H, P2_ERROR, P2_PARAMS = 4, 5, 6, 8, 9
+P1_ID, P1_LEN, P1_ERROR, P1_PARAMS = 2, 3, 4, 5
 
 
 class MarginPort(PortHandler):
@@ -109,10 +118,41 @@ class DxlBus:
         self._check(f"ping id {self.dxl_id}", result, error)
         return int(model)
 
+    def _status(self, port: PortHandler, what: str, length: int) -> tuple[list[int], int, int]:
+        """The servo's status packet of a read of ``length`` bytes: (data, result, error), as the
+        SDK's ``readRx`` but with the packet's parameter count checked (raises :class:`CommFailed`
+        naming ``what`` for a reply of another size)."""
+        p2 = self.protocol == 2
+        id_at, head = (P2_ID, P2_PARAMS) if p2 else (P1_ID, P1_PARAMS)
+        while True:
+            packet, result = self.ph.rxPacket(port, False) if p2 else self.ph.rxPacket(port)
+            if result != COMM_SUCCESS or packet[id_at] == self.dxl_id:
+                break
+        if result != COMM_SUCCESS:
+            return [], result, 0
+        n_data = (packet[P2_LEN_L] | packet[P2_LEN_H] << 8) - 4 if p2 else packet[P1_LEN] - 2
+        if n_data != length:
+            self._drop_stale_input()
+            raise CommFailed(
+                what,
+                f"status packet with {n_data} data bytes, expected {length}: a stale or cut reply, dropped",
+            )
+        error = packet[P2_ERROR if p2 else P1_ERROR]
+        return list(packet[head : head + length]), result, error
+
     def read(self, name: str) -> int:
         f = self.table[name]
-        data, result, error = self._call(f"read {name}", self.ph.readTxRx, self.dxl_id, f.address, f.size)
-        self._check(f"read {name} (address {f.address})", result, error)
+        what = f"read {name} (address {f.address})"
+
+        def exchange(port: PortHandler) -> tuple[list[int], int, int]:
+            result = self.ph.readTx(port, self.dxl_id, f.address, f.size)
+            if result != COMM_SUCCESS:
+                port.is_using = False
+                return [], result, 0
+            return self._status(port, what, f.size)
+
+        data, result, error = self._call(f"read {name}", exchange)
+        self._check(what, result, error)
         return decode_int(data, 0, f)
 
     def write(self, name: str, value: int) -> None:
@@ -135,8 +175,7 @@ class DxlBus:
             if result != COMM_SUCCESS:
                 port.is_using = False
                 return [], result, 0
-            data, result, error = self.ph.readRx(port, self.dxl_id, length)
-            return data, result, error
+            return self._status(port, "state read", length)
 
         data, result, error = self._call("state read", exchange)
         self._check("state read", result, error)

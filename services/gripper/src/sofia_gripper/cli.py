@@ -13,7 +13,7 @@ from sofia_runtime.output import add_json_option, emit
 from sofia_runtime.service import StopFlag
 from sofia_runtime.zenoh_config import ZenohOptions, add_zenoh_args, zenoh_config
 from sofia_schemas.keys import ENCODING_JSON, Keys, add_robot_arg, default_robot
-from sofia_schemas.messages import GripperCommand, GripperResult
+from sofia_schemas.messages import ErrorReply, GripperCommand, GripperResult
 
 from .config import GripperConfig, load_config
 
@@ -96,7 +96,13 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     c.set_defaults(func=_calibrate)
 
     for action in ACTIONS:
-        a = gs.add_parser(action, help=f"send a {action} command to the gripper service")
+        a = gs.add_parser(
+            action, help=f"send a {action} command to the gripper service",
+            description=f"Send a {action} command to the gripper service. Exit 0 when it succeeded"
+            + (" and an object is held" if action == "grasp" else "")
+            + ", 1 when it failed" + (" or nothing was grasped" if action == "grasp" else "")
+            + " or no service answered, 2 on a bad option.",
+        )  # fmt: skip
         add_zenoh_args(a)
         add_robot_arg(a)
         a.add_argument("--timeout", type=float, default=10.0, help="command timeout, s (default 10)")
@@ -188,9 +194,15 @@ def _command(args: argparse.Namespace) -> int:
     if reply.ok is not None:
         result = GripperResult.model_validate_json(reply.ok.payload.to_bytes())
         emit(args, result, lambda: describe_result(result))
-        return 0 if result.ok else 1
+        nothing = cmd.action == "grasp" and result.grasped is False  # a grasp must hold an object
+        return 0 if result.ok and not nothing else 1
     assert reply.err is not None
-    print(reply.err.payload.to_bytes().decode(errors="replace"), file=sys.stderr)
+    raw = reply.err.payload.to_bytes()
+    try:
+        message = ErrorReply.model_validate_json(raw).message
+    except ValueError:
+        message = raw.decode(errors="replace")
+    print(f"sofia gripper {args.action}: error: {message}", file=sys.stderr)
     return 1
 
 

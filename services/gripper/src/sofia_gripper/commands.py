@@ -58,13 +58,23 @@ def _torque(g: Gripper, cmd: GripperCommand, t0: float) -> GripperResult:
     if cmd.enable is None:
         raise CommandError("torque needs 'enable': true or false")
     _require_connected(g)
+    if cmd.enable and g.config.protocol == 2 and g.hw_error:
+        raise NotReady(
+            f"reboot needed: the servo shut down on {', '.join(g.hw_error)} and only a reboot re-enables its torque"
+        )
     if cmd.enable:
         g.write_goal("goal_position", g.bus.read("present_position"))
         if g.config.protocol == 1:  # "Alarm Shutdown" set Torque Limit(34) to 0: writing it re-arms
             g.set_current(g.config.move_current_ma)
     g.bus.write("torque_enable", int(cmd.enable))
-    g.torque = cmd.enable
-    g.grasped = g.grasped and cmd.enable
+    # Protocol 2.0 e-Manual, "Shutdown(63)": after a shutdown only REBOOT re-enables the torque; the
+    # servo takes the write and switches it off again, so the answer is what the servo reads back
+    g.torque = cmd.enable and g.bus.read("torque_enable") == 1
+    g.grasped = g.grasped and g.torque
+    if cmd.enable and not g.torque:
+        return _result(
+            cmd, False, "reboot needed: the servo switched its torque off again (a shutdown)", g.state, t0
+        )
     return _result(cmd, True, "done", g.next_state(0.5) or g.state, t0)
 
 

@@ -188,6 +188,8 @@ class Gripper:
                 )  # Protocol 1.0 shutdown sets Torque Limit to 0 and leaves Torque Enable on
                 if self.torque:
                     recover_watchdog(self)
+                else:  # a shutdown (or torque off) lets go of whatever was held
+                    self.grasped = False
         except BusError as e:
             self.counters["read_errors"] += 1
             self._fails += 1

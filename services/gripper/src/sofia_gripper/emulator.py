@@ -48,6 +48,8 @@ class Emulator:
         self.lock = threading.Lock()
         self.no_reply = False
         self.corrupt = False
+        self.cut = False  # status packets carry half their data (valid checksums)
+        self.late_s = 0.0  # the next reply this late, seconds (then 0)
         self.packets = 0
         self._parser = pk.PacketParser(protocol)
         self._fds: tuple[int, int] | None = None
@@ -128,7 +130,7 @@ class Emulator:
         """Cool down and drop the overload cause (the servo still needs a reboot to clear its error)."""
         with self.lock:
             self.servo.temperature_c = 40.0
-            self.no_reply = self.corrupt = False
+            self.no_reply = self.corrupt = self.cut = False
 
     def unplug(self) -> None:
         with self.lock:
@@ -143,14 +145,17 @@ class Emulator:
 
     def control(self, line: str) -> str:
         """One console command (``sofia gripper emulate`` reads them from stdin): ``object MM|none``,
-        ``overheat``, ``overload``, ``noreply on|off``, ``corrupt on|off``, ``unplug``, ``replug``,
-        ``clear``. Returns what was done, or what was wrong with the line."""
+        ``overheat``, ``overload``, ``noreply on|off``, ``corrupt on|off``, ``cut on|off`` (status
+        packets with half their data, valid checksums), ``late MS`` (the next reply MS late),
+        ``unplug``, ``replug``, ``clear``. Returns what was done, or what was wrong with the line."""
         word, *rest = line.split() or [""]
         arg = rest[0] if rest else ""
         if word == "object" and arg:
             self.set_object(None if arg == "none" else float(arg))
-        elif word in ("noreply", "corrupt") and arg in ("on", "off"):
-            setattr(self, "no_reply" if word == "noreply" else "corrupt", arg == "on")
+        elif word in ("noreply", "corrupt", "cut") and arg in ("on", "off"):
+            setattr(self, {"noreply": "no_reply"}.get(word, word), arg == "on")
+        elif word == "late" and arg.replace(".", "", 1).isdigit():
+            self.late_s = float(arg) / 1000.0
         elif word in ("overheat", "overload", "unplug", "replug", "clear"):
             getattr(
                 self,
@@ -159,7 +164,7 @@ class Emulator:
                 ),
             )()
         else:
-            return f"unknown command {line.strip()!r}: object MM|none, overheat, overload, noreply on|off, corrupt on|off, unplug, replug, clear"
+            return f"unknown command {line.strip()!r}: object MM|none, overheat, overload, noreply on|off, corrupt on|off, cut on|off, late MS, unplug, replug, clear"
         return f"ok: {line.strip()}"
 
     def snapshot(self) -> dict[str, float]:
@@ -197,7 +202,8 @@ class Emulator:
                     continue
                 reply = self._dispatch(ins, t_arrival)
                 fds = self._fds
-                delay_s = self.servo.get("return_delay_time") * 2e-6
+                delay_s = self.servo.get("return_delay_time") * 2e-6 + self.late_s
+                self.late_s = 0.0
             if reply and fds:
                 if self.corrupt:
                     reply = reply[:-1] + bytes([reply[-1] ^ 0x5A])
@@ -228,7 +234,7 @@ class Emulator:
         level = s.get("status_return_level")
         group = kind in {"sync_read", "bulk_read"}
         if kind == "ping" or (level >= 1 and (group or (mine and kind == "read"))) or (level >= 2 and mine):
-            return self._status(error, params)
+            return self._status(error, params[: len(params) // 2] if self.cut else params)
         return None
 
     def _status(self, error: int, params: bytes = b"") -> bytes:

@@ -8,6 +8,8 @@ from pathlib import Path
 from sofia_runtime.output import add_json_option, emit
 from sofia_runtime.zenoh_config import ZenohOptions, add_zenoh_args
 from sofia_schemas import Board
+from sofia_schemas.board import BOARD_HELP
+from sofia_schemas.frames import CAMERA_FRAME
 from sofia_schemas.keys import add_robot_arg, default_robot
 
 LAYOUT = Path(__file__).with_name("data") / "layout.json"
@@ -23,9 +25,9 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     serve.add_argument(
         "--port", type=int, default=8765, help="WebSocket TCP port number (0: any free port; default 8765)"
     )
-    serve.add_argument("--board", type=Path, default=None, help="board YAML/JSON (default: the package's)")
-    serve.add_argument("--camera-frame", default="camera_color_optical_frame",
-                       help="frame_id of the camera clouds (default camera_color_optical_frame)")  # fmt: skip
+    serve.add_argument("--board", type=Path, default=None, help=BOARD_HELP)
+    serve.add_argument("--camera-frame", default=CAMERA_FRAME,
+                       help="frame_id of the camera clouds (default %(default)s)")  # fmt: skip
     add_robot_arg(serve)
     add_zenoh_args(serve)
     serve.set_defaults(func=_serve)
@@ -42,7 +44,7 @@ def _layout(args: argparse.Namespace) -> int:
 def _serve(args: argparse.Namespace) -> int:
     from .service import ServiceConfig, main
 
-    board = Board.from_file(args.board) if args.board else Board.default()
+    board = Board.load(args.board)
     config = ServiceConfig(robot=args.robot or default_robot(), zenoh=ZenohOptions.from_args(args), board=board,
                            host=args.host, port=args.port, camera_frame=args.camera_frame)  # fmt: skip
     return main(config)

@@ -25,6 +25,7 @@ from foxglove.messages import (
     Vector3,
 )
 from sofia_schemas import Board
+from sofia_schemas.frames import BASE_FRAME
 from sofia_schemas.messages import CalibrationResult, Detection, PickTarget
 
 RED = Color(r=0.85, g=0.1, b=0.1, a=0.6)
@@ -101,7 +102,7 @@ def pick_entity(pick: PickTarget) -> SceneEntity:
     return SceneEntity(timestamp=stamp(pick.stamp_ns), frame_id=pick.frame_id, id="pick", arrows=arrows)
 
 
-def calibration_entity(result: CalibrationResult, base_frame: str = "panda_link0") -> SceneEntity:
+def calibration_entity(result: CalibrationResult, base_frame: str = BASE_FRAME) -> SceneEntity:
     """The blob mapped into the base frame by the calibration, and the lab's 1 cm band around it."""
     p = result.target_base
     return SceneEntity(timestamp=stamp(result.stamp_ns), frame_id=base_frame, id="calibration/blob", spheres=[

@@ -22,6 +22,9 @@ opens these in Foxglove: Layouts -> Import from file.
 from __future__ import annotations
 
 import logging
+import queue
+import threading
+import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
@@ -30,9 +33,11 @@ import foxglove
 import zenoh
 from foxglove.channels import SceneUpdateChannel
 from foxglove.messages import SceneEntityDeletion, SceneEntityDeletionType, SceneUpdate
-from sofia_runtime.service import StatusEndpoint, StopFlag
+from sofia_runtime.client import fetch_latest
+from sofia_runtime.service import StatusEndpoint, StopFlag, run_worker
 from sofia_runtime.zenoh_config import ZenohOptions, zenoh_config
 from sofia_schemas import Board
+from sofia_schemas.frames import CAMERA_FRAME
 from sofia_schemas.keys import Keys
 from sofia_schemas.messages import (
     CalibrationResult,
@@ -53,6 +58,7 @@ from .scene import board_entity, calibration_entity, detection_entities, pick_en
 log = logging.getLogger("sofia.viz")
 STATUS_PERIOD_S = 1.0
 MAX_OBJECTS = 8  # scene entities object/<i> cleared beyond the detection's objects
+LATCH_DELAY_S = 0.05  # after a subscription, before its latched message is logged again
 
 
 @dataclass
@@ -62,7 +68,7 @@ class ServiceConfig:
     board: Board
     host: str = "127.0.0.1"
     port: int = 8765
-    camera_frame: str = "camera_color_optical_frame"
+    camera_frame: str = CAMERA_FRAME
 
 
 def ros2_channel(topic: str, typename: str) -> foxglove.Channel:
@@ -74,12 +80,28 @@ def json_channel(topic: str, model: Any) -> foxglove.Channel:
     return foxglove.Channel(topic, schema=model.model_json_schema())
 
 
+class LateJoiners(foxglove.ServerListener):
+    """Hands each new subscription's topic over to :meth:`Viz.replay_latched` (on its own thread)."""
+
+    def __init__(self) -> None:
+        self.topics: queue.Queue[str | None] = queue.Queue()
+
+    def on_subscribe(self, client: Any, channel: Any) -> None:
+        self.topics.put(str(channel.topic))
+
+
 class Viz:
-    """Zenoh samples -> Foxglove channels (the callbacks only convert and log)."""
+    """Zenoh samples -> Foxglove channels (the callbacks only convert and log).
+
+    Latched topics (``/tf_static``, ``/sofia/calibration``): their last message is logged again
+    whenever a client subscribes, so a client that joins after the calibration can place the
+    camera clouds at once (the SDK cannot send to one client: the others get a duplicate)."""
 
     def __init__(self, config: ServiceConfig) -> None:
         self.config = config
-        self.counters = {"logged": 0, "errors": 0}
+        self.latched: dict[str, tuple[foxglove.Channel, bytes | str]] = {}
+        self._lock = threading.Lock()
+        self.counters = {"logged": 0, "errors": 0, "latched": 0}
         self.last_error = ""
         self.points = ros2_channel("/sofia/points", cv.POINTCLOUD2)
         self.camera = ros2_channel("/sofia/camera/points", cv.POINTCLOUD2)
@@ -132,15 +154,31 @@ class Viz:
     def on_calibration(self, sample: zenoh.Sample) -> None:
         raw = sample.payload.to_bytes()
         result = CalibrationResult.model_validate_json(raw)
+        tf = encode(
+            cv.tf_message([cv.calibration_transform(result, self.config.camera_frame)]), cv.TF_MESSAGE
+        )
+        with self._lock:
+            self.latched["/sofia/calibration"] = (self.json["calib"], raw.decode())
+            self.latched["/tf_static"] = (self.tf_static, tf)
         self.json["calib"].log(raw.decode())
-        tf = cv.tf_message([cv.calibration_transform(result, self.config.camera_frame)])
-        self.tf_static.log(encode(tf, cv.TF_MESSAGE))
+        self.tf_static.log(tf)
         self.scene.log(SceneUpdate(entities=[calibration_entity(result, self.config.board.frame_id)]))
 
     def on_gripper(self, sample: zenoh.Sample) -> None:
         raw = sample.payload.to_bytes()
         GripperState.model_validate_json(raw)
         self.json["gripper"].log(raw.decode())
+
+    def replay_latched(self, topics: queue.Queue[str | None]) -> None:
+        """Log the latched message of each newly subscribed topic again, until None arrives. A
+        subscription is taken once the listener returns: the message follows it shortly after."""
+        while (topic := topics.get()) is not None:
+            with self._lock:
+                latched = self.latched.get(topic)
+            if latched is not None:
+                time.sleep(LATCH_DELAY_S)
+                latched[0].log(latched[1])
+                self.counters["latched"] += 1
 
     def publish_board(self) -> None:
         self.scene.log(SceneUpdate(entities=[board_entity(self.config.board, now_ns())]))
@@ -151,8 +189,10 @@ def main(config: ServiceConfig) -> int:
     stop = StopFlag()
     keys = Keys(config.robot)
     viz = Viz(config)
+    joiners = LateJoiners()
     try:
-        server = foxglove.start_server(name=f"sofia {config.robot}", host=config.host, port=config.port)
+        server = foxglove.start_server(name=f"sofia {config.robot}", host=config.host, port=config.port,
+                                       server_listener=joiners)  # fmt: skip
     except Exception as e:  # the SDK raises its own error types for bind failures
         raise PortInUse(config.host, config.port, str(e)) from None
     with zenoh.open(zenoh_config(config.zenoh)) as session:
@@ -166,10 +206,14 @@ def main(config: ServiceConfig) -> int:
                 (keys.gripper_state, "gripper state", viz.on_gripper),
             )
         ]  # fmt: skip
+        replayer = run_worker("viz-latched", lambda: viz.replay_latched(joiners.topics))
+        # the calibration solved before this process started, if a calibrator answers
+        fetching = fetch_latest(session, keys.calibration_result, viz._guard("calibration", viz.on_calibration),
+                                stop.event, timeout=5.0)  # fmt: skip
 
         def status() -> ServiceStatus:
             return ServiceStatus(service="viz", stamp_ns=now_ns(), state="ok", detail=viz.last_error,
-                                 counters=dict(viz.counters), info={"foxglove": f"ws://{config.host}:{server.port}"})  # fmt: skip
+                                 counters=dict(viz.counters), info={"foxglove": f"ws://{config.host}:{server.port}", "board": config.board.digest})  # fmt: skip
 
         endpoint = StatusEndpoint(session, keys.status("viz"), status)
         log.info(
@@ -181,6 +225,9 @@ def main(config: ServiceConfig) -> int:
             if stop.wait(STATUS_PERIOD_S):
                 break
         log.info("viz stopping")
+        joiners.topics.put(None)
+        replayer.join(timeout=2.0)
+        fetching.join(timeout=5.0)  # out of the session's calls before it closes
         endpoint.undeclare()
         for s in subs:
             s.undeclare()

@@ -105,7 +105,7 @@ def _noise(p: np.ndarray, sigma: object, confidence: np.ndarray | None, camera: 
 
 def _models(correction: str) -> tuple[str, ...]:
     if correction == "auto":
-        return cc.MODELS
+        return cc.AUTO_MODELS
     if correction not in cc.MODELS:
         raise InputMismatch(f"correction must be 'auto' or one of {cc.MODELS}, got {correction!r}")
     return (correction,)
@@ -149,7 +149,8 @@ def calibrate(
     None): an isotropic component (robot, blob extraction) added to the D435 model; "depth": the
     D435 model times a factor; "uniform": isotropic; an (n, 3) or (n,) array (metres): relative
     weights times a factor. confidence: optional (n,) in (0, 1] dividing each sample's sigma.
-    correction: "auto" chooses rigid / depth_scale / ray_scale by an F-test; or one of them.
+    correction: "auto" chooses rigid or depth_scale by an F-test (``correction.MODEL_ALPHA``); or
+    one of rigid, depth_scale, ray_scale.
 
     Outliers: the studentized leave-one-out test (F(3, dof - 3), family-wise false-alarm rate
     ``outlier_alpha``), worst first, under the chosen correction. exclude_outliers: the returned

@@ -96,7 +96,7 @@ class Problem:
     guess: np.ndarray | None
     loss: str
     loss_scale: float
-    models: tuple[str, ...] = cc.MODELS  # the first is the reference (rigid)
+    models: tuple[str, ...] = cc.AUTO_MODELS  # the first is the reference (rigid)
     camera: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))  # (n, 3) camera-model sigma
 
     def solve(self, idx: np.ndarray, model: str, sigma: np.ndarray, start: Solution | None) -> Solution:

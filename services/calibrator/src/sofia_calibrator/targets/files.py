@@ -54,3 +54,30 @@ def read_euler_poses(path: str | Path, convention: str = "xyz", length_unit_m: f
     T[:, :3, :3] = Rotation.from_euler(convention, a[:, :3]).as_matrix()
     T[:, :3, 3] = a[:, 3:] * length_unit_m
     return T
+
+
+def read_opencv_pose_pairs(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
+    """(T1 (n, 4, 4), T2 (n, 4, 4)) from an OpenCV YAML file of ``frameCount`` and ``T1_i`` /
+    ``T2_i`` matrices (handeye_calib_camodocal's TransformPairsInput.yml: robot and marker poses,
+    metres), through OpenCV's own FileStorage reader."""
+    import cv2
+
+    path = Path(path)
+    if not path.is_file():
+        raise ParseError(path, None, "no such pose-pair file")
+    fs = cv2.FileStorage(str(path), cv2.FILE_STORAGE_READ)
+    try:
+        n = int(fs.getNode("frameCount").real())
+        if n <= 0:
+            raise ParseError(path, None, "no frameCount (not a pose-pair file)")
+        pairs = []
+        for i in range(n):
+            a, b = (fs.getNode(f"{k}_{i}").mat() for k in ("T1", "T2"))
+            if a is None or b is None or a.shape != (4, 4) or b.shape != (4, 4):
+                raise ParseError(path, None, f"pair {i}: T1_{i} and T2_{i} must be 4x4 matrices")
+            pairs.append((a, b))
+    finally:
+        fs.release()
+    return np.array([a for a, _ in pairs], dtype=np.float64), np.array(
+        [b for _, b in pairs], dtype=np.float64
+    )

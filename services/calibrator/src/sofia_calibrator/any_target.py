@@ -1,7 +1,7 @@
 """One call for every target and set-up: ``calibrate_target(target, setup, ...)`` returns the same
 :class:`Calibration` (and so the same message, YAML, ROS launch line, TF and plot) whichever the
-target: a blob or a sphere (points, the point solver) or plain 6-DoF target poses (OpenCV starts,
-joint refinement: :mod:`sofia_calibrator.targets.poses`)."""
+target: a blob or a sphere (points, the point solver), a ChArUco board (its pose per view) or
+plain 6-DoF target poses (OpenCV starts, joint refinement: :mod:`sofia_calibrator.targets.poses`)."""
 
 from __future__ import annotations
 
@@ -13,11 +13,12 @@ from . import diagnostics as dg
 from .calibrate import CHILD_FRAME, PARENT_FRAME, Calibration
 from .errors import InputMismatch
 from .eye_to_hand import BASE_FRAME, CAMERA_FRAME, SETUPS, calibrate_setup, flange_base_poses
+from .targets.charuco import BoardSpec, board_poses
 from .targets.poses import DEFAULT_SIZE_M, PoseFit, fixed_target, hand_eye_from_poses, residuals
 from .targets.sphere import DEFAULT_INLIER_M, sphere_centres
 
-TARGETS = ("blob", "sphere", "poses")
-PLANNED = ("charuco", "apriltag")  # board and marker detection: not built yet
+TARGETS = ("blob", "sphere", "poses", "charuco")
+PLANNED = ("apriltag",)  # marker detection: not built yet
 
 
 def frames(setup: str) -> tuple[str, str]:
@@ -36,6 +37,9 @@ def calibrate_target(
     inlier_m: float = DEFAULT_INLIER_M,
     T_cam_target: np.ndarray | None = None,
     size_m: float = DEFAULT_SIZE_M,
+    images: list[np.ndarray] | None = None,
+    K: np.ndarray | None = None,
+    board: BoardSpec | None = None,
     parent_frame: str | None = None,
     child_frame: str | None = None,
     **options: Any,
@@ -45,7 +49,9 @@ def calibrate_target(
     T_base_flange: (n, 4, 4) flange poses. target "blob": p_cam (n, 3) camera frame, metres;
     "sphere": clouds_cam, n clouds (m_i, 3) camera frame, metres, the sphere of ``radius_m`` (None:
     fitted) found in each; "poses": T_cam_target (n, 4, 4) measured target poses (``size_m``: the
-    target's size, weighting a rotation in the first pass). setup: "eye-in-hand" (result
+    target's size, weighting a rotation in the first pass); "charuco": grey images (h, w) uint8, the
+    camera matrix K (3, 3) and the ``board`` (:class:`BoardSpec`), each view's board pose by PnP
+    on its ChArUco corners, then as "poses". setup: "eye-in-hand" (result
     T_flange_cam) or "eye-to-hand" (result T_base_cam). options: those of :func:`calibrate` (for
     points). Returns a :class:`Calibration` with the set-up's frames unless given.
     """
@@ -59,6 +65,14 @@ def calibrate_target(
         raise InputMismatch(f"setup must be one of {SETUPS}, got {setup!r}")
     parent, child = frames(setup)
     parent, child = parent_frame or parent, child_frame or child
+    if target == "charuco":
+        if images is None or K is None:
+            raise InputMismatch(
+                "target 'charuco' needs images (one per flange pose) and K, the camera matrix"
+            )
+        T_cam_target = board_poses(images, K, board or BoardSpec())
+        size_m = max((board or BoardSpec()).size_m)
+        target = "poses"
     if target == "poses":
         if T_cam_target is None:
             raise InputMismatch("target 'poses' needs T_cam_target (n, 4, 4), the measured target poses")

@@ -78,7 +78,7 @@ def add_target_args(p: argparse.ArgumentParser) -> None:
     g = p.add_argument_group("target and set-up")
     g.add_argument("--target", default="blob", choices=("blob", "sphere", "poses", "charuco", "apriltag"),
                    help="what the camera sees: blob (default), sphere (--clouds), poses (--pose-pairs); "
-                   "charuco and apriltag are not available yet")  # fmt: skip
+                   "charuco from Python (calibrate_target); apriltag is not available yet")  # fmt: skip
     g.add_argument("--setup", default="eye-in-hand", choices=("eye-in-hand", "eye-to-hand"),
                    help="eye-in-hand: camera on the flange (T_flange_cam, default); eye-to-hand: camera "
                    "fixed, target on the flange (T_base_cam)")  # fmt: skip

@@ -112,7 +112,7 @@ def hand_eye_from_poses(
     """Hand-eye from n pose pairs: T_base_flange (n, 4, 4) and T_cam_target (n, 4, 4), metres.
 
     setup "eye-in-hand": X = T_flange_cam, target fixed in the base; "eye-to-hand": X = T_base_cam,
-    target on the flange. Every OpenCV method's X starts a refinement; the lowest cost wins.
+    target on the flange. The OpenCV method's X of lowest cost starts the refinement.
     """
     A, B = _validate(T_base_flange, T_cam_target)
     if setup == "eye-to-hand":
@@ -124,14 +124,15 @@ def hand_eye_from_poses(
         raise InputMismatch("no OpenCV hand-eye method gave a transform: the poses may not rotate enough")
     A_inv = np.linalg.inv(A)
     w = np.array([1.0, 1.0 / size_m])  # first pass: a rotation weighs as the target's size
-    best = None
-    for name, X0 in base.items():
-        Y0 = fixed_target(A, X0, B)
-        sol = least_squares(residuals, np.zeros(12), args=(X0, Y0, A_inv, B, w), x_scale=0.05)
-        if best is None or sol.cost < best[1].cost:
-            best = (name, sol, X0, Y0)
-    assert best is not None
-    name, sol, X, Y = best
+    # the start of lowest cost is refined (the methods' answers differ by millimetres, one basin)
+    starts = {name: (X0, fixed_target(A, X0, B)) for name, X0 in base.items()}
+    costs = {
+        name: float(np.sum(residuals(np.zeros(12), X0, Y0, A_inv, B, w) ** 2))
+        for name, (X0, Y0) in starts.items()
+    }
+    name = min(costs, key=costs.__getitem__)
+    X, Y = starts[name]
+    sol = least_squares(residuals, np.zeros(12), args=(X, Y, A_inv, B, w), x_scale=0.05)
     dof = max(6 * len(A) - 12, 1)
     for _ in range(3):  # the translation and rotation noise levels estimated from the residuals
         X, Y = _unpack(sol.x, X, Y)

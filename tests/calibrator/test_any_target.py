@@ -8,8 +8,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from sofia_calibrator import calibrate, to_message, to_yaml
-from sofia_calibrator.any_target import calibrate_target
+from sofia_calibrator import calibrate, calibrate_target, to_message, to_yaml
 from sofia_calibrator.errors import InputMismatch
 from sofia_calibrator.simulate import make_eye_to_hand, make_problem
 
@@ -59,6 +58,8 @@ def test_pose_targets_give_the_same_message() -> None:
 def test_unknown_and_planned_targets_say_so() -> None:
     pr = make_problem(6, np.random.default_rng(23))
     with pytest.raises(InputMismatch, match="not available yet"):
+        calibrate_target("apriltag", T_base_flange=pr.T_base_flange)
+    with pytest.raises(InputMismatch, match="needs images"):
         calibrate_target("charuco", T_base_flange=pr.T_base_flange)
     with pytest.raises(InputMismatch, match="target must be one of"):
         calibrate_target("laser", T_base_flange=pr.T_base_flange)

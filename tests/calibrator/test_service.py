@@ -89,7 +89,7 @@ def test_service_online_queries_errors_and_restart(
     offline = calibrate(pr.p_cam, pr.T_base_flange)
     assert np.abs(np.array(last.matrix) - offline.T_flange_cam).max() < 1e-6
     assert last.noise_mm == pytest.approx(offline.noise_mm, rel=1e-4)
-    assert last.camera_correction.model == offline.correction.model and len(last.correction_models) == 3
+    assert last.camera_correction.model == offline.correction.model and len(last.correction_models) == 2
     assert np.allclose(last.covariance, offline.covariance6, rtol=1e-3, atol=1e-15)
 
     ok, body = query_json(session, keys.calibrator_op("result"))

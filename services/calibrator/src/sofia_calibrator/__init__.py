@@ -1,5 +1,6 @@
 """SofIA calibrator: point-based hand-eye calibration (``T_flange_cam``), library and online service."""
 
+from .any_target import calibrate_target
 from .calibrate import Calibration, calibrate
 from .diagnostics import LAB_SPREAD_LIMIT_MM, dissipation, map_to_base, spread
 from .errors import (
@@ -21,7 +22,7 @@ from .solver import Solution, solve
 __all__ = [
     "LAB_SPREAD_LIMIT_MM", "BlobAmbiguous", "BlobCutByEdge", "BlobNoDepth", "BlobNotFound",
     "Calibration", "CalibrationError", "DegenerateMotion", "Fit", "InputMismatch", "ParseError",
-    "Solution", "TooFewSamples", "calibrate", "dissipation", "map_to_base", "read_lab", "read_poses",
+    "Solution", "TooFewSamples", "calibrate", "calibrate_target", "dissipation", "map_to_base", "read_lab", "read_poses",
     "read_tfs", "ros1_static_transform", "ros2_static_transform", "solve", "spread", "to_message",
     "to_yaml",
 ]  # fmt: skip

@@ -17,6 +17,7 @@ from .errors import InputMismatch, TooFewSamples
 from .fit import Fit, Problem, Selection
 from .influence import Influence, influence
 from .noise import ISOTROPIC_PRIOR_M, NoiseModel, camera_sigma
+from .screen import gross_errors
 from .solver import LOSSES
 
 MIN_SAMPLES = 3
@@ -106,7 +107,7 @@ def _noise(p: np.ndarray, sigma: object, confidence: np.ndarray | None, camera: 
 
 def _models(correction: str) -> tuple[str, ...]:
     if correction == "auto":
-        return cc.MODELS
+        return cc.AUTO_MODELS
     if correction not in cc.MODELS:
         raise InputMismatch(f"correction must be 'auto' or one of {cc.MODELS}, got {correction!r}")
     return (correction,)
@@ -150,10 +151,12 @@ def calibrate(
     None): an isotropic component (robot, blob extraction) added to the D435 model; "depth": the
     D435 model times a factor; "uniform": isotropic; an (n, 3) or (n,) array (metres): relative
     weights times a factor. confidence: optional (n,) in (0, 1] dividing each sample's sigma.
-    correction: "auto" chooses rigid / depth_scale / ray_scale by an F-test; or one of them.
+    correction: "auto" chooses rigid or depth_scale by an F-test (``correction.MODEL_ALPHA``); or
+    one of rigid, depth_scale, ray_scale.
 
     Outliers: the studentized leave-one-out test (F(3, dof - 3), family-wise false-alarm rate
-    ``outlier_alpha``), worst first, under the chosen correction. exclude_outliers: the returned
+    ``outlier_alpha``), worst first, under the chosen correction, among the gross errors of a
+    robust fit (:mod:`sofia_calibrator.screen`: heavy-tailed noise does not make outliers). exclude_outliers: the returned
     fit leaves them out (``with_all_samples`` keeps the other fit); else it keeps them
     (``without_outliers``). The lab's 1 cm criterion never removes samples: when it fails and
     ``enforce_criterion``, ``criterion_advice`` names the fewest samples whose removal would meet it.
@@ -176,10 +179,12 @@ def calibrate(
     # selection's id is reused by the next one, whose samples differ)
     inf_all: Influence | None = None
     inf_sel: Influence | None = None
-    while len(kept) > keep_min:
+    # only a gross error of a robust fit may be removed (heavy-tailed noise: see screen.py)
+    gross = gross_errors(p, T, noise.sigma(), outlier_alpha) if len(kept) > keep_min else np.zeros(n, bool)
+    while len(kept) > keep_min and gross[kept].any():
         inf_sel = influence(sel.solution)
         inf_all = inf_sel if sel is sel_all else inf_all
-        pv = np.where(np.isnan(inf_sel.p_value), np.inf, inf_sel.p_value)
+        pv = np.where(np.isnan(inf_sel.p_value) | ~gross[kept], np.inf, inf_sel.p_value)
         k = int(pv.argmin())
         if not pv[k] < outlier_alpha / len(kept):
             break

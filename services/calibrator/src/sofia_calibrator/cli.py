@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from typing import Any
 
 import numpy as np
 from sofia_runtime.output import add_json_option
@@ -34,6 +35,7 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     src.add_argument(
         "--from-clouds", action="store_true", help="with --mcap: extract the blob from the clouds"
     )
+    add_target_args(p)
     p.add_argument("--guess", nargs=7, type=float, metavar=("X", "Y", "Z", "QX", "QY", "QZ", "QW"),
                    help="optional initial T_flange_cam (never required); quaternion x y z w")  # fmt: skip
     p.add_argument("--loss", default="linear", choices=("linear", "huber", "cauchy"),
@@ -74,6 +76,72 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     s.set_defaults(func=run_service)
 
 
+def add_target_args(p: argparse.ArgumentParser) -> None:
+    """--target / --setup and the inputs of the sphere and pose targets."""
+    g = p.add_argument_group("target and set-up")
+    g.add_argument("--target", default="blob", choices=("blob", "sphere", "poses", "charuco", "apriltag"),
+                   help="what the camera sees: blob (default), sphere (--clouds), poses (--pose-pairs); "
+                   "charuco from Python (calibrate_target); apriltag is not available yet")  # fmt: skip
+    g.add_argument("--setup", default="eye-in-hand", choices=("eye-in-hand", "eye-to-hand"),
+                   help="eye-in-hand: camera on the flange (T_flange_cam, default); eye-to-hand: camera "
+                   "fixed, target on the flange (T_base_cam)")  # fmt: skip
+    g.add_argument("--clouds", nargs="+", metavar="CLOUD", help="sphere: one PCD/PLY cloud per flange pose")
+    g.add_argument("--cloud-unit", type=float, default=1.0, help="metres per cloud unit (default 1)")
+    g.add_argument("--radius", type=float, help="sphere radius, metres (default: fitted)")
+    g.add_argument("--euler-poses", metavar="FILE",
+                   help="flange poses as 'a, b, c, x, y, z' lines (radians; see --euler-convention)")  # fmt: skip
+    g.add_argument("--euler-convention", default="xyz", help="SciPy Euler sequence (default xyz)")
+    g.add_argument(
+        "--length-unit", type=float, default=1e-3, help="metres per --euler-poses unit (default mm)"
+    )
+    g.add_argument("--pose-pairs", metavar="FILE",
+                   help="poses: OpenCV YAML of T1_i (flange) / T2_i (target in camera) pairs")  # fmt: skip
+
+
+def run_target(args: argparse.Namespace) -> object:
+    """The calibration of ``--target`` / ``--setup`` (any target but the plain eye-in-hand blob)."""
+    from .any_target import PLANNED, calibrate_target, frames
+
+    parent, child = frames(args.setup)
+    parent = parent if args.parent_frame == PARENT_FRAME else args.parent_frame
+    child = child if args.child_frame == CHILD_FRAME else args.child_frame
+    common: dict[str, Any] = {"parent_frame": parent, "child_frame": child}
+    if args.target in PLANNED:
+        raise InputMismatch(
+            f"--target {args.target} is not available yet: give its poses with --target poses"
+        )
+    if args.target == "poses":
+        from .targets.files import read_opencv_pose_pairs
+
+        if not args.pose_pairs:
+            raise InputMismatch("--target poses needs --pose-pairs FILE")
+        T, T_cam_target = read_opencv_pose_pairs(args.pose_pairs)
+        return calibrate_target("poses", args.setup, T_base_flange=T, T_cam_target=T_cam_target, **common)
+    if args.euler_poses:
+        from .targets.files import read_euler_poses
+
+        T = read_euler_poses(args.euler_poses, args.euler_convention, args.length_unit)
+    elif args.target == "sphere" and args.tfs:
+        from .lab_io import read_tfs
+
+        T = read_tfs(args.tfs)
+    else:
+        p_cam, T = load_samples(args)
+    options: dict[str, Any] = {"sigma": args.noise, "loss": args.loss, "exclude_outliers": not args.keep_outliers,
+               "correction": args.correction, **common}  # fmt: skip
+    if args.target == "sphere":
+        from .targets.files import read_cloud
+
+        if not args.clouds:
+            raise InputMismatch("--target sphere needs --clouds, one cloud file per flange pose")
+        if len(args.clouds) != len(T):
+            raise InputMismatch(f"{len(args.clouds)} clouds but {len(T)} flange poses")
+        clouds = [read_cloud(c) * args.cloud_unit for c in args.clouds]
+        return calibrate_target("sphere", args.setup, T_base_flange=T, clouds_cam=clouds, radius_m=args.radius,
+                                **options)  # fmt: skip
+    return calibrate_target(args.target, args.setup, T_base_flange=T, p_cam=p_cam, **options)
+
+
 def add_frame_args(p: argparse.ArgumentParser) -> None:
     """--parent-frame / --child-frame, defaulting to the lab's launch file."""
     p.add_argument("--parent-frame", default=PARENT_FRAME, help=f"flange frame (default {PARENT_FRAME})")
@@ -108,8 +176,9 @@ def load_samples(args: argparse.Namespace) -> tuple[np.ndarray, np.ndarray]:
 
 def run_calibrate(args: argparse.Namespace) -> int:
     from .calibrate import calibrate
-    from .formats import to_message, to_yaml
 
+    if args.target != "blob" or args.setup != "eye-in-hand":
+        return _report(run_target(args), args)
     p_cam, T = load_samples(args)
     guess = None
     if args.guess:
@@ -122,6 +191,13 @@ def run_calibrate(args: argparse.Namespace) -> int:
         p_cam, T, guess=guess, sigma=args.noise, loss=args.loss, exclude_outliers=not args.keep_outliers,
         correction=args.correction, parent_frame=args.parent_frame, child_frame=args.child_frame,
     )  # fmt: skip
+    return _report(cal, args)
+
+
+def _report(cal: Any, args: argparse.Namespace) -> int:
+    """Print and write a calibration's result (YAML or JSON, --yaml, --plot); 0 when it passes."""
+    from .formats import to_message, to_yaml
+
     msg = to_message(cal)
     if args.yaml:
         with open(args.yaml, "w") as f:

@@ -113,7 +113,7 @@ class Problem:
     guess: np.ndarray | None
     loss: str
     loss_scale: float
-    models: tuple[str, ...] = cc.MODELS  # the first is the reference (rigid)
+    models: tuple[str, ...] = cc.AUTO_MODELS  # the first is the reference (rigid)
     camera: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))  # (n, 3) camera-model sigma
 
     def solve(self, idx: np.ndarray, model: str, sigma: np.ndarray, start: Solution | None) -> Solution:
@@ -155,9 +155,10 @@ class Problem:
         sol = refine(p, T[:, :3, :3], T[:, :3, 3], sigma, ref.R @ so3.exp(dx[k, :3]), ref.t + dx[k, 3:6],
                      ref.p_base + dx[k, 6:9], self.loss, self.loss_scale, model=chosen.model, beta=chosen.beta)  # fmt: skip
         chosen.chi2, chosen.beta = sol.cost, sol.beta
-        # model-averaged covariance (Buckland): the other models' spread, by Akaike weight
-        aic = [c.aic for c in cands]
-        w = [math.exp(-0.5 * (a - min(aic))) for a in aic]
+        # model-averaged covariance (Buckland): the other models' spread, weighted by an information
+        # criterion whose penalty per unknown is the model test's critical value (``cc.WEIGHT_PENALTY``)
+        crit = [c.aic + (cc.WEIGHT_PENALTY - 2.0) * c.n_params for c in cands]
+        w = [math.exp(-0.5 * (a - min(crit))) for a in crit]
         w = [wb / sum(w) for wb in w]
         extra = np.zeros((9, 9))
         for b, c in enumerate(cands):

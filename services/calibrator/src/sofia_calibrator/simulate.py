@@ -86,3 +86,77 @@ def make_problem(
     p_cam = seen + sample_noise(seen, rng, noise_scale)
     sigma = np.sqrt((camera_sigma(seen) * noise_scale) ** 2 + robot_noise_m**2)
     return Problem(T_fc, p_base, T_base_flange, p_cam_true, p_cam, sigma)
+
+
+UNMODELLED_NOISE = ("student", "correlated", "depth3x", "scale")
+
+
+def unmodelled_problem(kind: str, n: int, rng: np.random.Generator) -> Problem:
+    """A problem whose noise the solver does not assume (coverage and false-alarm checks).
+
+    kind: "student" (camera and 1.5 mm robot noise Student-t with 3 degrees of freedom, unit
+    variance scaled), "correlated" (robot error 2 mm per axis, AR(1) 0.8 between consecutive
+    samples), "depth3x" (the camera's depth noise 3x its model, 1 mm robot noise) or "scale"
+    (depth reads 1 / 0.95 long, 1.5 mm robot noise). The robot error is added to the reported
+    flange translations; ``p_cam`` is the measured blob, camera frame, metres.
+    """
+    if kind not in UNMODELLED_NOISE:
+        raise ValueError(f"kind must be one of {UNMODELLED_NOISE}, got {kind!r}")
+    pr = make_problem(n, rng, noise_scale=0.0, depth_scale=0.95 if kind == "scale" else 1.0)
+    camera = camera_sigma(pr.p_cam)
+    if kind == "student":
+        e = rng.standard_t(3, pr.p_cam.shape) / np.sqrt(3.0) * camera
+        robot = rng.standard_t(3, (n, 3)) / np.sqrt(3.0) * 0.0015
+    elif kind == "correlated":
+        e = rng.standard_normal(pr.p_cam.shape) * camera
+        z = rng.standard_normal((n, 3)) * 0.002
+        robot = np.empty_like(z)
+        robot[0] = z[0]
+        for i in range(1, n):  # AR(1): stationary 2 mm per axis
+            robot[i] = 0.8 * robot[i - 1] + 0.6 * z[i]
+    elif kind == "depth3x":
+        e = rng.standard_normal(pr.p_cam.shape) * camera * [1.0, 1.0, 3.0]
+        robot = rng.standard_normal((n, 3)) * 0.001
+    else:
+        e = rng.standard_normal(pr.p_cam.shape) * camera
+        robot = rng.standard_normal((n, 3)) * 0.0015
+    pr.T_base_flange[:, :3, 3] += robot
+    pr.p_cam = pr.p_cam + e
+    return pr
+
+
+@dataclass
+class EyeToHandProblem:
+    """A fixed camera and a flange-mounted target, with truth. Metres."""
+
+    T_base_cam: np.ndarray  # (4, 4)
+    p_flange: np.ndarray  # (3,) target in the flange frame
+    T_base_flange: np.ndarray  # (n, 4, 4) as reported (robot noise added)
+    p_cam_true: np.ndarray  # (n, 3)
+    p_cam: np.ndarray  # (n, 3) measured
+
+
+def make_eye_to_hand(
+    n: int, rng: np.random.Generator, noise_scale: float = 1.0, robot_noise_m: float = 0.0,
+    depth_scale: float = 1.0, max_tilt_deg: float = 40.0,
+) -> EyeToHandProblem:  # fmt: skip
+    """A fixed camera 0.6-0.9 m from a workspace point, a target 5-12 cm from the flange, n flange
+    poses tilted by up to ``max_tilt_deg`` about random axes (flange pointing down), the target
+    within 12 cm of the workspace point. Noise as :func:`make_problem`."""
+    look = np.array([0.5, 0.0, 0.3]) + rng.uniform(-0.05, 0.05, 3)
+    T_base_cam = views_of(look, 1, rng, distance=(0.6, 0.9), max_off_axis_deg=50.0)[0]
+    p_flange = np.r_[rng.uniform(-0.04, 0.04, 2), rng.uniform(0.05, 0.12)]
+    down = Rotation.from_rotvec([np.pi, 0.0, 0.0])
+    tilt = Rotation.from_rotvec(
+        rng.standard_normal((n, 3)) / np.sqrt(3.0) * np.radians(max_tilt_deg) * rng.uniform(0.3, 1.0, (n, 1))
+    )
+    R = (down * tilt).as_matrix()
+    q_base = look + rng.uniform(-0.12, 0.12, (n, 3))
+    T = np.tile(np.eye(4), (n, 1, 1))
+    T[:, :3, :3] = R
+    T[:, :3, 3] = q_base - R @ p_flange
+    T_cam_base = np.linalg.inv(T_base_cam)
+    p_cam_true = q_base @ T_cam_base[:3, :3].T + T_cam_base[:3, 3]
+    T[:, :3, 3] += rng.standard_normal((n, 3)) * robot_noise_m
+    seen = p_cam_true / [1.0, 1.0, depth_scale]
+    return EyeToHandProblem(T_base_cam, p_flange, T, p_cam_true, seen + sample_noise(seen, rng, noise_scale))

@@ -1,0 +1,246 @@
+"""Calibration per data set and target: ours vs the best off-the-shelf baseline, measured in one run.
+
+Per data set: the leave-one-out error (real sets: every fold refitted) or the error to the truth
+(synthetic), the correction chosen, the translation 1-sigma coverage, the time per calibration, and
+the same for the baseline: ``scipy.optimize.least_squares`` on the point objective (rigid, from the
+same closed-form start) for points, OpenCV's best ``calibrateHandEye`` method for pose targets.
+Then the translation coverage and false outliers under noise the solver does not assume, and the
+model choice on small subsets of the lab set.
+
+Data: ``data/lab`` (the lab's 11 real samples, shipped); RegHEC's real sphere set (not shipped:
+``--reghec DIR``, a checkout of github.com/Shiyu-Xing/RegHEC); handeye_calib_camodocal's 42 real
+pose pairs (not shipped: ``--camodocal DIR``, a checkout of github.com/jhu-lcsr/handeye_calib_camodocal).
+Rows whose data is absent say so.
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+from time import perf_counter as clock
+
+import numpy as np
+from scipy.optimize import least_squares
+from scipy.spatial.transform import Rotation
+from sofia_calibrator import calibrate, read_lab
+from sofia_calibrator.diagnostics import error6
+from sofia_calibrator.eye_to_hand import calibrate_eye_to_hand, flange_base_poses
+from sofia_calibrator.simulate import UNMODELLED_NOISE, make_eye_to_hand, make_problem, unmodelled_problem
+from sofia_calibrator.solver import linear_init
+from sofia_calibrator.targets import read_cloud, read_euler_poses, sphere_centres
+from sofia_calibrator.targets.files import read_opencv_pose_pairs
+from sofia_calibrator.targets.poses import consistency, hand_eye_from_poses
+
+LAB = Path(__file__).resolve().parents[1] / "data" / "lab"
+
+
+def ls_baseline(p_cam: np.ndarray, T: np.ndarray) -> np.ndarray:
+    """(4, 4) T_flange_cam by least_squares on the point objective (mapped blob minus a free
+    p_base, base frame), rigid, from the closed-form start."""
+    R0, t0, p0 = linear_init(p_cam, T[:, :3, :3], T[:, :3, 3], np.ones(len(p_cam)))
+
+    def f(x: np.ndarray) -> np.ndarray:
+        R = Rotation.from_rotvec(x[:3]).as_matrix()
+        m = np.einsum("nij,nj->ni", T[:, :3, :3], p_cam @ R.T + x[3:6]) + T[:, :3, 3]
+        return np.asarray((m - x[6:9]).ravel())
+
+    x = least_squares(f, np.r_[Rotation.from_matrix(R0).as_rotvec(), t0, p0]).x
+    out = np.eye(4)
+    out[:3, :3], out[:3, 3] = Rotation.from_rotvec(x[:3]).as_matrix(), x[3:6]
+    return out
+
+
+def held_out_mm(T_fc: np.ndarray, apply, p: np.ndarray, T: np.ndarray, p_base: np.ndarray) -> float:  # type: ignore[no-untyped-def]
+    m = np.einsum("ij,j->i", T[:3, :3], T_fc[:3, :3] @ apply(p) + T_fc[:3, 3]) + T[:3, 3]
+    return float(1e3 * np.linalg.norm(m - p_base))
+
+
+def real_points(name: str, p_cam: np.ndarray, T: np.ndarray, extra_s: float = 0.0) -> list[str]:
+    """Refitted leave-one-out of ours and of the least-squares baseline on a real point set."""
+    ours, base, models = [], [], []
+    calibrate(p_cam, T)  # warm-up: the compiled kernels load once
+    t0 = clock()
+    for i in range(len(p_cam)):
+        k = np.delete(np.arange(len(p_cam)), i)
+        cal = calibrate(p_cam[k], T[k], leave_one_out=False)
+        models.append(cal.correction.model)
+        corr = cal.correction
+        ours.append(
+            held_out_mm(cal.T_flange_cam, lambda q, c=corr: c.apply(q[None])[0], p_cam[i], T[i], cal.p_base)
+        )
+    t_ours = (clock() - t0) / len(p_cam)
+    t0 = clock()
+    for i in range(len(p_cam)):
+        k = np.delete(np.arange(len(p_cam)), i)
+        X = ls_baseline(p_cam[k], T[k])
+        mapped = np.einsum("nij,nj->ni", T[k, :3, :3], p_cam[k] @ X[:3, :3].T + X[:3, 3]) + T[k, :3, 3]
+        base.append(held_out_mm(X, lambda q: q, p_cam[i], T[i], mapped.mean(axis=0)))
+    t_base = (clock() - t0) / len(p_cam)
+    full = calibrate(p_cam, T)
+    rms = [float(np.sqrt(np.mean(np.square(x)))) for x in (ours, base)]
+    kinds = ", ".join(f"{m} {models.count(m)}/{len(models)}" for m in sorted(set(models)))
+    return [f"| {name} | LOO {rms[0]:.2f} mm | {full.correction.model} {full.correction.depth_scale:.4f} "
+            f"(folds: {kinds}) | - | {1e3 * (t_ours + extra_s):.1f} ms | LOO {rms[1]:.2f} mm, "
+            f"{1e3 * t_base:.1f} ms | {rms[1] / rms[0]:.2f}x |"]  # fmt: skip
+
+
+def synthetic_points(name: str, make, trials: int, eye_to_hand: bool) -> str:  # type: ignore[no-untyped-def]
+    """Truth error, correction chosen, coverage, time: ours vs the least-squares baseline."""
+    e_o, e_b, cover, scaled, t_o, t_b = [], [], [], 0, 0.0, 0.0
+    for k in range(trials):
+        X_true, p_cam, T, biased = make(k)
+        t0 = clock()
+        cal = (calibrate_eye_to_hand if eye_to_hand else calibrate)(p_cam, T, leave_one_out=False)
+        t_o += clock() - t0
+        e = error6(cal.T_flange_cam, X_true)
+        e_o.append(np.linalg.norm(e[:3]))
+        cover.append(np.abs(e[:3]) <= np.sqrt(np.diag(cal.covariance6))[:3])
+        scaled += (cal.correction.model != "rigid") == biased
+        t0 = clock()
+        Xb = ls_baseline(p_cam, flange_base_poses(T) if eye_to_hand else T)
+        t_b += clock() - t0
+        e_b.append(np.linalg.norm(error6(Xb, X_true)[:3]))
+    r = [1e3 * float(np.sqrt(np.mean(np.square(x)))) for x in (e_o, e_b)]
+    return (f"| {name} ({trials} sets) | truth {r[0]:.2f} mm | right model {100 * scaled / trials:.0f} % | "
+            f"{100 * np.mean(cover):.1f} % | {1e3 * t_o / trials:.1f} ms | truth {r[1]:.2f} mm, "
+            f"{1e3 * t_b / trials:.1f} ms | {r[1] / r[0]:.2f}x |")  # fmt: skip
+
+
+def synthetic_poses(name: str, trials: int, setup: str, rng: np.random.Generator) -> str:
+    e_o, e_b, cover, t_o = [], [], [], 0.0
+    for _ in range(trials):
+        pr = make_problem(12, rng, noise_scale=0.0)
+        Y = np.eye(4)
+        Y[:3, :3], Y[:3, 3] = Rotation.random(random_state=rng).as_matrix(), pr.p_base
+        A = pr.T_base_flange
+        B = np.linalg.inv(pr.T_flange_cam) @ np.linalg.inv(A) @ Y
+        B[:, :3, :3] = (
+            Rotation.from_rotvec(np.radians(0.3) * rng.standard_normal((12, 3))).as_matrix() @ B[:, :3, :3]
+        )
+        B[:, :3, 3] += rng.standard_normal((12, 3)) * 0.001
+        A_in = np.linalg.inv(A) if setup == "eye-to-hand" else A  # the same views as the other set-up
+        t0 = clock()
+        fit = hand_eye_from_poses(A_in, B, setup=setup)
+        t_o += clock() - t0
+        e = error6(fit.X, pr.T_flange_cam)
+        e_o.append(np.linalg.norm(e[:3]))
+        cover.append(np.abs(e[:3]) <= fit.std_translation_mm / 1e3)
+        e_b.append(min(np.linalg.norm(error6(X, pr.T_flange_cam)[:3]) for X in fit.baselines.values()))
+    r = [1e3 * float(np.sqrt(np.mean(np.square(x)))) for x in (e_o, e_b)]
+    return (f"| {name} ({trials} sets, 0.3 deg + 1 mm pose noise) | truth {r[0]:.2f} mm | - | "
+            f"{100 * np.mean(cover):.1f} % | {1e3 * t_o / trials:.0f} ms (all 5 OpenCV starts) | "
+            f"best OpenCV method per set: truth {r[1]:.2f} mm | {r[1] / r[0]:.2f}x |")  # fmt: skip
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--reghec", type=Path, help="checkout of RegHEC (data/Sphere)")
+    ap.add_argument("--camodocal", type=Path, help="checkout of handeye_calib_camodocal (example/)")
+    ap.add_argument("--trials", type=int, default=100, help="synthetic sets per row")
+    ap.add_argument("--seed", type=int, default=0)
+    args = ap.parse_args()
+    rng = np.random.default_rng(args.seed)
+    print("| data set | ours: error | correction chosen | 1-sigma coverage (translation) | ours: time | "
+          "baseline: error, time | baseline / ours |")  # fmt: skip
+    print("|---|---|---|---|---|---|---|")
+    p_cam, T = read_lab(LAB / "poses.txt", LAB / "tfs.txt")
+    for line in real_points("lab: 11 real blob samples, eye-in-hand (data/lab)", p_cam, T):
+        print(line)
+    sphere = args.reghec / "data" / "Sphere" if args.reghec else None
+    if sphere and (sphere / "RobotPoses.dat").is_file():
+        clouds = [read_cloud(sphere / f"view{i}d.pcd") for i in range(1, 10)]
+        t0 = clock()
+        centres = sphere_centres(clouds)[0]
+        per_view = (clock() - t0) / 9
+        Ts = read_euler_poses(sphere / "RobotPoses.dat")
+        rms = float(np.sqrt(np.mean(calibrate(centres, Ts).residuals_mm ** 2)))
+        for line in real_points(f"RegHEC: 9 real sphere views, eye-in-hand (RegHEC data/Sphere; fit RMS {rms:.2f} mm; "
+                                f"sphere fit {1e3 * per_view:.0f} ms/view, in the time)", centres, Ts, per_view * 8):  # fmt: skip
+            print(line)
+    else:
+        print("| RegHEC sphere set | not present (--reghec DIR) | - | - | - | - | - |")
+    pairs = args.camodocal / "example" / "TransformPairsInput.yml" if args.camodocal else None
+    if pairs and pairs.is_file():
+        T1, T2 = read_opencv_pose_pairs(pairs)
+        t0 = clock()
+        fit = hand_eye_from_poses(T1, T2, setup="eye-to-hand")
+        t = clock() - t0
+        ours = consistency(T1, T2, fit.X, "eye-to-hand")
+        name, X = min(fit.baselines.items(), key=lambda kv: consistency(T1, T2, kv[1], "eye-to-hand")[0])
+        base = consistency(T1, T2, X, "eye-to-hand")
+        print(f"| camodocal: 42 real robot/marker pose pairs, eye-to-hand (example/TransformPairsInput.yml) | "
+              f"target pose RMS {1e3 * ours[0]:.2f} mm / {np.degrees(ours[1]):.2f} deg | - | - | {1e3 * t:.0f} ms | "
+              f"OpenCV {name}: {1e3 * base[0]:.2f} mm / {np.degrees(base[1]):.2f} deg | {base[0] / ours[0]:.2f}x |")  # fmt: skip
+    else:
+        print("| camodocal pose pairs | not present (--camodocal DIR) | - | - | - | - | - |")
+
+    def eih(ds: float):  # type: ignore[no-untyped-def]
+        def make(k: int):  # type: ignore[no-untyped-def]
+            s = ds if ds != 0 else (0.96 if k % 2 else 1.0)
+            pr = make_problem(12, rng, robot_noise_m=0.0015, depth_scale=s)
+            return pr.T_flange_cam, pr.p_cam, pr.T_base_flange, s != 1.0
+
+        return make
+
+    def eth(k: int):  # type: ignore[no-untyped-def]
+        s = 0.96 if k % 2 else 1.0
+        pr = make_eye_to_hand(12, rng, robot_noise_m=0.001, depth_scale=s)
+        return pr.T_base_cam, pr.p_cam, pr.T_base_flange, s != 1.0
+
+    print(
+        synthetic_points("synthetic blob, eye-in-hand, 12 poses, rigid camera", eih(1.0), args.trials, False)
+    )
+    print(
+        synthetic_points(
+            "synthetic blob, eye-in-hand, 12 poses, depth 4 % long", eih(0.96), args.trials, False
+        )
+    )
+    print(
+        synthetic_points(
+            "synthetic ball, eye-to-hand, 12 poses, half with depth 4 % long", eth, args.trials, True
+        )
+    )
+    print(
+        synthetic_poses("synthetic pose target, eye-in-hand", max(args.trials // 4, 10), "eye-in-hand", rng)
+    )
+    print(
+        synthetic_poses("synthetic pose target, eye-to-hand", max(args.trials // 4, 10), "eye-to-hand", rng)
+    )
+    print()
+    print(
+        "| noise the solver does not assume | n | translation within 1-sigma | within 2-sigma | sets with a false outlier |"
+    )
+    print("|---|---|---|---|---|")
+    for kind in UNMODELLED_NOISE:
+        for n in (6, 11, 20, 50):
+            a1, a2, fa = [], [], 0
+            for _ in range(args.trials * 2):
+                pr = unmodelled_problem(kind, n, rng)
+                cal = calibrate(pr.p_cam, pr.T_base_flange, leave_one_out=False)
+                e = np.abs(error6(cal.T_flange_cam, pr.T_flange_cam)[:3])
+                sd = np.sqrt(np.diag(cal.covariance6))[:3]
+                a1.append(e <= sd)
+                a2.append(e <= 2 * sd)
+                fa += bool(cal.outliers)
+            print(f"| {kind} | {n} | {100 * np.mean(a1):.1f} % | {100 * np.mean(a2):.1f} % | "
+                  f"{100 * fa / (2 * args.trials):.1f} % |")  # fmt: skip
+    print()
+    subsets = min(40, 4 * args.trials)
+    print(
+        f"| lab subsets (data/lab), {subsets} random per size | held-out RMS: default | rigid | depth_scale always |"
+    )
+    print("|---|---|---|---|")
+    for m in (6, 7, 8):
+        errs: dict[str, list[float]] = {"auto": [], "rigid": [], "depth_scale": []}
+        for _ in range(subsets):
+            k = np.sort(rng.choice(11, m, replace=False))
+            h = np.setdiff1d(np.arange(11), k)
+            for corr, out in errs.items():
+                cal = calibrate(p_cam[k], T[k], leave_one_out=False, correction=corr)
+                out.extend(1e3 * np.linalg.norm(cal.map_to_base(p_cam[h], T[h]) - cal.p_base, axis=1))
+        r = {c: float(np.sqrt(np.mean(np.square(v)))) for c, v in errs.items()}
+        print(f"| {m} samples | {r['auto']:.2f} mm | {r['rigid']:.2f} mm | {r['depth_scale']:.2f} mm |")
+
+
+if __name__ == "__main__":
+    main()

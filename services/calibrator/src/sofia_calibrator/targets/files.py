@@ -1,0 +1,83 @@
+"""Readers of other labs' target data: point clouds (PCD/PLY through Open3D) and flange poses as
+Euler angles plus positions, one pose per line."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from ..errors import ParseError
+
+
+def read_cloud(path: str | Path) -> np.ndarray:
+    """(n, 3) points of a PCD or PLY file (Open3D's reader), in the file's unit; NaN rows dropped."""
+    import open3d as o3d
+
+    path = Path(path)
+    if not path.is_file():
+        raise ParseError(path, None, "no such point-cloud file")
+    points = np.asarray(o3d.io.read_point_cloud(path).points, dtype=np.float64)
+    if points.size == 0:
+        raise ParseError(path, None, "no points (not a PCD/PLY file, or an empty cloud)")
+    return points[np.isfinite(points).all(axis=1)]
+
+
+def read_euler_poses(path: str | Path, convention: str = "xyz", length_unit_m: float = 1e-3) -> np.ndarray:
+    """(n, 4, 4) T_base_flange, metres, from lines ``a, b, c, x, y, z`` (angles in radians).
+
+    convention: SciPy's Euler sequence of (a, b, c) (lower case extrinsic, upper case intrinsic);
+    RegHEC's ``RobotPoses.dat`` (rx, ry, rz then mm, "Euler ZYX") is "xyz" with ``length_unit_m``
+    1e-3.
+    """
+    path = Path(path)
+    rows = []
+    for i, line in enumerate(Path(path).read_text().splitlines(), start=1):
+        parts = [x for x in line.replace(",", " ").split() if x]
+        if not parts or parts[0].startswith("#"):
+            continue
+        if len(parts) != 6:
+            raise ParseError(
+                path, i, f"expected 6 values (3 angles, 3 positions), got {len(parts)}: {line!r}"
+            )
+        try:
+            rows.append([float(x) for x in parts])
+        except ValueError:
+            raise ParseError(path, i, f"not a number in {line!r}") from None
+    if not rows:
+        raise ParseError(path, None, "no poses (the file is empty)")
+    a = np.array(rows)
+    if not np.isfinite(a).all():
+        raise ParseError(path, None, "a pose has a non-finite value")
+    T = np.tile(np.eye(4), (len(a), 1, 1))
+    T[:, :3, :3] = Rotation.from_euler(convention, a[:, :3]).as_matrix()
+    T[:, :3, 3] = a[:, 3:] * length_unit_m
+    return T
+
+
+def read_opencv_pose_pairs(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
+    """(T1 (n, 4, 4), T2 (n, 4, 4)) from an OpenCV YAML file of ``frameCount`` and ``T1_i`` /
+    ``T2_i`` matrices (handeye_calib_camodocal's TransformPairsInput.yml: robot and marker poses,
+    metres), through OpenCV's own FileStorage reader."""
+    import cv2
+
+    path = Path(path)
+    if not path.is_file():
+        raise ParseError(path, None, "no such pose-pair file")
+    fs = cv2.FileStorage(str(path), cv2.FILE_STORAGE_READ)
+    try:
+        n = int(fs.getNode("frameCount").real())
+        if n <= 0:
+            raise ParseError(path, None, "no frameCount (not a pose-pair file)")
+        pairs = []
+        for i in range(n):
+            a, b = (fs.getNode(f"{k}_{i}").mat() for k in ("T1", "T2"))
+            if a is None or b is None or a.shape != (4, 4) or b.shape != (4, 4):
+                raise ParseError(path, None, f"pair {i}: T1_{i} and T2_{i} must be 4x4 matrices")
+            pairs.append((a, b))
+    finally:
+        fs.release()
+    return np.array([a for a, _ in pairs], dtype=np.float64), np.array(
+        [b for _, b in pairs], dtype=np.float64
+    )

@@ -1,0 +1,141 @@
+"""A sphere (ball) target found in a point cloud: its centre is the calibration point of a view.
+
+Segment and fit in one robust pass: RANSAC over minimal samples (4 points give the sphere
+through them in closed form; with a known radius, draws far from it are dropped) scored by the
+points within ``inlier_m`` of the surface, then a geometric least-squares refinement
+(:func:`scipy.optimize.least_squares`, soft-L1 loss) of the centre and, when not given, the radius
+on the inliers. The centre's per-view 1-sigma comes from the refinement's Jacobian and residual
+scale. Only the sphere's near cap is seen, so the centre is least certain along the view ray.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.optimize import least_squares
+
+from ..errors import CalibrationError, InputMismatch
+
+MIN_POINTS = 30
+RANSAC_DRAWS = 400
+SCORE_POINTS = 1500  # the draws are scored on a random subset of this many points
+DEFAULT_INLIER_M = 0.002
+MIN_INLIER_FRACTION = 0.2
+RADIUS_RANGE_M = (0.005, 0.5)  # spheres outside this are not calibration targets
+
+
+class SphereNotFound(CalibrationError):  # noqa: N818 - named as in STYLE.md
+    def __init__(self, reason: str) -> None:
+        super().__init__(f"no sphere found: {reason}")
+
+
+@dataclass
+class Sphere:
+    """A sphere fitted to a cloud. Camera optical frame, metres."""
+
+    p_cam: np.ndarray  # (3,) centre
+    radius_m: float
+    sigma_cam: np.ndarray  # (3,) 1-sigma of the centre along the camera axes
+    covariance: np.ndarray  # (3, 3) of the centre
+    n_inliers: int
+    rms_m: float  # RMS distance of the inliers to the surface
+
+
+def _spheres_through(quads: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Centres (m, 3) and radii (m,) of the spheres through (m, 4, 3) point quadruples (NaN when
+    the four points are coplanar): |p|^2 = 2 c . p + d is linear in (c, d)."""
+    A = np.concatenate([2.0 * quads, np.ones((*quads.shape[:2], 1))], axis=2)
+    b = np.einsum("mij,mij->mi", quads, quads)
+    ok = np.abs(np.linalg.det(A)) > 1e-15
+    x = np.full((len(quads), 4), np.nan)
+    x[ok] = np.linalg.solve(A[ok], b[ok][..., None])[..., 0]
+    c = x[:, :3]
+    r2 = x[:, 3] + np.einsum("mi,mi->m", c, c)
+    return c, np.sqrt(np.where(r2 > 0, r2, np.nan))
+
+
+def _validate(points_cam: np.ndarray, radius_m: float | None) -> np.ndarray:
+    p = np.asarray(points_cam, dtype=np.float64)
+    if p.ndim < 2 or p.shape[-1] != 3:
+        raise InputMismatch(f"points_cam must be (n, 3) or (h, w, 3), got {p.shape}")
+    p = p.reshape(-1, 3)
+    p = p[np.isfinite(p).all(axis=1) & (p[:, 2] > 0)]
+    if len(p) < MIN_POINTS:
+        raise SphereNotFound(f"{len(p)} valid points (need {MIN_POINTS})")
+    if radius_m is not None and not RADIUS_RANGE_M[0] <= radius_m <= RADIUS_RANGE_M[1]:
+        raise InputMismatch(f"radius_m must be in {RADIUS_RANGE_M} metres, got {radius_m}")
+    return p
+
+
+def find_sphere(
+    points_cam: np.ndarray,
+    radius_m: float | None = None,
+    inlier_m: float = DEFAULT_INLIER_M,
+    rng: np.random.Generator | None = None,
+) -> Sphere:
+    """The sphere in a cloud: points_cam (n, 3) or organized (h, w, 3), camera optical frame,
+    metres (NaN and z <= 0 ignored). radius_m: the known radius (metres) or None to fit it.
+    inlier_m: distance to the surface counted as the sphere's. Raises :class:`SphereNotFound`
+    when fewer than ``MIN_INLIER_FRACTION`` of the points (and 30) lie on one sphere."""
+    p = _validate(points_cam, radius_m)
+    rng = np.random.default_rng(0) if rng is None else rng
+    quads = p[rng.integers(0, len(p), (RANSAC_DRAWS, 4))]
+    centres, radii = _spheres_through(quads)
+    if radius_m is not None:  # keep the draws near the known radius; the centre is refitted below
+        radii = np.where(np.abs(radii - radius_m) < 3 * inlier_m + 0.1 * radius_m, radius_m, np.nan)
+    lo, hi = RADIUS_RANGE_M
+    good = np.isfinite(radii) & (radii > lo) & (radii < hi)
+    if not good.any():
+        raise SphereNotFound(f"no 4-point sample of the {len(p)} points spans a sphere of radius {lo}-{hi} m")
+    centres, radii = centres[good], radii[good]
+    # score on at most SCORE_POINTS points, in chunks of (draws, points) distances
+    q = p[rng.choice(len(p), SCORE_POINTS, replace=False)] if len(p) > SCORE_POINTS else p
+    counts = np.concatenate([
+        (np.abs(np.linalg.norm(q[None] - c[:, None], axis=2) - r[:, None]) < inlier_m).sum(axis=1)
+        for c, r in zip(np.array_split(centres, 8), np.array_split(radii, 8), strict=True) if len(c)
+    ])  # fmt: skip
+    best = int(counts.argmax())
+    inl = np.abs(np.linalg.norm(p - centres[best], axis=1) - radii[best]) < inlier_m
+    if inl.sum() < max(MIN_POINTS, MIN_INLIER_FRACTION * len(p)):
+        raise SphereNotFound(f"the best sphere holds {int(inl.sum())} of {len(p)} points within {inlier_m} m")
+    return refine_sphere(
+        p[inl], centres[best], radii[best] if radius_m is None else radius_m, radius_m is None
+    )
+
+
+def refine_sphere(points: np.ndarray, centre: np.ndarray, radius_m: float, fit_radius: bool) -> Sphere:
+    """Geometric least squares of a sphere from a start: points (n, 3) metres, camera frame."""
+
+    def resid(x: np.ndarray) -> np.ndarray:
+        r = x[3] if fit_radius else radius_m
+        return np.asarray(np.linalg.norm(points - x[:3], axis=1) - r)
+
+    def jac(x: np.ndarray) -> np.ndarray:  # d/dc = -(p - c) / |p - c|, d/dr = -1
+        d = points - x[:3]
+        J = -d / np.linalg.norm(d, axis=1, keepdims=True)
+        return np.c_[J, -np.ones(len(points))] if fit_radius else J
+
+    x0 = np.r_[centre, radius_m] if fit_radius else np.asarray(centre, dtype=np.float64)
+    sol = least_squares(resid, x0, jac=jac, loss="soft_l1", f_scale=DEFAULT_INLIER_M / 2, x_scale=0.01)
+    r = sol.fun
+    dof = max(len(points) - len(x0), 1)
+    s2 = float(r @ r) / dof
+    cov = np.linalg.pinv(sol.jac.T @ sol.jac) * s2
+    c = sol.x[:3]
+    return Sphere(
+        p_cam=c, radius_m=float(sol.x[3]) if fit_radius else float(radius_m),
+        sigma_cam=np.sqrt(np.maximum(cov.diagonal()[:3], 0.0)), covariance=cov[:3, :3],
+        n_inliers=len(points), rms_m=float(np.sqrt(np.mean(r**2))),
+    )  # fmt: skip
+
+
+def sphere_centres(
+    clouds_cam: list[np.ndarray], radius_m: float | None = None, inlier_m: float = DEFAULT_INLIER_M
+) -> tuple[np.ndarray, np.ndarray]:
+    """The calibration points of n views of a sphere: (p_cam (n, 3), sigma_cam (n, 3)), camera
+    optical frame, metres; each view's cloud (m_i, 3) or (h, w, 3), metres. ``p_cam`` goes where
+    the blob positions go (:func:`sofia_calibrator.calibrate`, with ``sigma=sigma_cam`` to weight
+    the views by their fit's uncertainty)."""
+    spheres = [find_sphere(c, radius_m, inlier_m) for c in clouds_cam]
+    return np.array([s.p_cam for s in spheres]), np.array([s.sigma_cam for s in spheres])

@@ -1,0 +1,51 @@
+"""ChArUco board target: rendered views detected by OpenCV's aruco module, the board poses recovered,
+the hand-eye transform as accurate as OpenCV's best method on the same views; a view without the
+board says which."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from sofia_calibrator.any_target import calibrate_target
+from sofia_calibrator.diagnostics import error6
+from sofia_calibrator.simulate import random_T_flange_cam, views_of
+from sofia_calibrator.targets.poses import hand_eye_from_poses
+
+pytest.importorskip("cv2")
+from sofia_calibrator.targets.charuco import BoardNotFound, BoardSpec, board_poses, render_view
+
+K = np.array([[600.0, 0.0, 320.0], [0.0, 600.0, 240.0], [0.0, 0.0, 1.0]])
+
+
+def _views(n: int, seed: int):  # type: ignore[no-untyped-def]
+    """(X true T_flange_cam, T_base_flange (n, 4, 4), true T_cam_board (n, 4, 4), images)."""
+    rng = np.random.default_rng(seed)
+    X = random_T_flange_cam(rng)
+    centre = np.array([0.5, 0.0, 0.0])
+    Y = np.eye(4)
+    Y[:3, :3] = np.diag([1.0, -1.0, -1.0])  # the board's z into the table: its face up
+    Y[:3, 3] = centre - Y[:3, :3] @ np.r_[0.14, 0.10, 0.0]
+    T_base_cam = views_of(centre, n, rng, distance=(0.4, 0.6), max_off_axis_deg=35, max_image_offset_deg=8)
+    B = np.linalg.inv(T_base_cam) @ Y
+    images = [np.clip(render_view(b, K, (640, 480)) + rng.normal(0, 3, (480, 640)), 0, 255).astype(np.uint8)
+              for b in B]  # fmt: skip
+    return X, T_base_cam @ np.linalg.inv(X), B, images
+
+
+def test_rendered_charuco_views_calibrate() -> None:
+    X, A, B, images = _views(8, 30)
+    measured = board_poses(images, K, BoardSpec())
+    assert np.abs(measured[:, :3, 3] - B[:, :3, 3]).max() < 3e-3
+    fit = hand_eye_from_poses(A, measured)
+    ours = np.linalg.norm(error6(fit.X, X)[:3])
+    best = min(np.linalg.norm(error6(Xb, X)[:3]) for Xb in fit.baselines.values())
+    assert ours < 3e-3 and ours <= 1.1 * best, (ours, best)
+    cal = calibrate_target("charuco", T_base_flange=A, images=images, K=K)
+    np.testing.assert_allclose(cal.T_flange_cam, fit.X, atol=1e-6)
+
+
+def test_a_view_without_the_board_is_named() -> None:
+    _, A, _, images = _views(4, 31)
+    images[2] = np.full_like(images[2], 255)
+    with pytest.raises(BoardNotFound, match="view 2: 0 ChArUco corners"):
+        calibrate_target("charuco", T_base_flange=A, images=images, K=K)

@@ -38,7 +38,9 @@ class ArmCommand(Message):
     - ``move_pose``: ``position`` + ``quaternion_xyzw`` of the flange in the base frame;
     - ``home``, ``stop``, ``recover``: no arguments;
     - ``pick_place``: ``target`` (a :class:`PickTarget`; without it the latest one published on
-      ``pick/target``) and ``place_position`` (+ optional ``place_quaternion_xyzw``) of the flange;
+      ``pick/target``) and where to place it: ``place_position`` (+ optional
+      ``place_quaternion_xyzw``) of the flange, or ``place_object``, the point on the surface
+      under the object's centre where the object should end up (base frame, m);
     - ``calibrate``: options in ``calibrate`` (free dict, read by the autonomous calibration).
 
     ``speed`` is relative to the robot's maximum velocity, acceleration and jerk, capped by the
@@ -54,6 +56,7 @@ class ArmCommand(Message):
     target: PickTarget | None = None
     place_position: Vec3 | None = None
     place_quaternion_xyzw: Quat | None = None
+    place_object: Vec3 | None = None
     calibrate: dict[str, Any] = {}
 
     @field_validator("quaternion_xyzw")
@@ -74,8 +77,11 @@ class ArmCommand(Message):
             raise ValueError("move_joints needs q: 7 joint positions in radians")
         if self.command == "move_pose" and (self.position is None or self.quaternion_xyzw is None):
             raise ValueError("move_pose needs position (x y z, m) and quaternion_xyzw of the flange")
-        if self.command == "pick_place" and self.place_position is None:
-            raise ValueError("pick_place needs place_position (x y z, m) of the flange")
+        if self.command == "pick_place" and (self.place_position is None) == (self.place_object is None):
+            raise ValueError(
+                "pick_place needs one of place_position (x y z, m) of the flange or place_object "
+                "(x y z, m: the point on the surface under the object's centre where it should end up)"
+            )
         return self
 
 

@@ -48,6 +48,12 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
         metavar="Z",
         help="height of the table surface, base frame, m, without --board (default 0)",
     )
+    s.add_argument("--transform", type=Path, dest="transform_file", metavar="FILE",
+                   help="flange->camera transform (YAML/JSON with matrix) for the survey when no calibrator "
+                        "answers")  # fmt: skip
+    s.add_argument("--sim-world", type=Path, metavar="FILE",
+                   help="the simulated world's file, shared with `camera serve --sim` and the gripper emulator "
+                        "(default: $SOFIA_SIM_WORLD): objects between the fingers are carried with the flange")  # fmt: skip
     add_zenoh_args(s)
     s.set_defaults(func=_serve)
 
@@ -88,15 +94,17 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
 
 
 def _serve(args: argparse.Namespace) -> int:
+    from sofia_schemas.sim_world import world_path
+
     from .config import load_config
     from .service import ServiceConfig, main
 
     f = args.max_speed
     arm = load_config(args.config, model=args.model, max_velocity=f, max_acceleration=f, max_jerk=f,
                       state_rate_hz=args.hz, realtime=args.realtime, tool=args.tool, board_file=args.board_file,
-                      surface_z=args.surface_z)  # fmt: skip
+                      surface_z=args.surface_z, transform_file=args.transform_file)  # fmt: skip
     conf = ServiceConfig(arm=arm, robot=default_robot(), zenoh=ZenohOptions.from_args(args),
-                         robot_ip=args.robot_ip, sim=args.sim)  # fmt: skip
+                         robot_ip=args.robot_ip, sim=args.sim, sim_world=args.sim_world or world_path())  # fmt: skip
     return main(conf)
 
 

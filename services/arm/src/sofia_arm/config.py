@@ -42,6 +42,9 @@ class ArmConfig(BaseModel):
     surface_z: float = Field(0.0, ge=-1.0, le=1.0)
     board_file: Path | None = None
     surface_margin_m: float = Field(0.005, ge=0.0, le=0.2)
+    # flange -> camera transform for the survey when no calibrator answers (YAML/JSON with ``matrix``,
+    # as the detector's --transform file); the calibrator's latest result wins when there is one
+    transform_file: Path | None = None
     # collision thresholds (the robot stops with a reflex above them)
     torque_threshold_nm: float = Field(20.0, gt=0.0)
     force_threshold_n: float = Field(30.0, gt=0.0)

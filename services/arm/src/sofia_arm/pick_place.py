@@ -229,26 +229,27 @@ class PickPlace:
 
 
 def find_target(arm: ArmMotion, safety: Safety, session: zenoh.Session, keys: Keys, progress: Progress,
-                speed: float, colours: tuple[str, ...] | None = None) -> PickTarget:  # fmt: skip
+                speed: float, colours: tuple[str, ...] | None = None) -> tuple[PickTarget, survey.Survey | None]:  # fmt: skip
     """A target to pick found by a survey (:mod:`sofia_arm.survey`) through the calibrator's latest
-    result; without a calibrator, the detector's next published target."""
-    T_flange_cam = survey.calibration(session, keys)
+    result (or the configured transform), and the survey (close its detections); without either,
+    the detector's next published target and None."""
+    T_flange_cam = survey.calibration(session, keys, safety.config.transform_file)
     if T_flange_cam is None:
         target = latest_target(session, keys)
         progress.add("target", "done", f"object at {np.round(target.object_center, 4).tolist()} m "
                                        "(published; no calibration on the bus to survey with)")  # fmt: skip
-        return target
+        return target, None
     board = Board.from_file(safety.config.board_file) if safety.config.board_file else Board.default()
-    detections = survey.Detections(session, keys)
+    look = survey.Survey(arm, safety, progress, survey.Detections(session, keys), board, T_flange_cam, speed)
     try:
-        look = survey.Survey(arm, safety, progress, detections, board, T_flange_cam, speed)
         obj, stamp_ns = look.find(colours)
-    finally:
-        detections.close()
+    except BaseException:
+        look.detections.close()
+        raise
     target = survey.pick_of(obj, stamp_ns, safety)
     progress.add("target", "done", f"{obj.colour or ''} object at {np.round(target.object_center, 4).tolist()} m, "
                                    f"confidence {obj.confidence:.2f}".lstrip())  # fmt: skip
-    return target
+    return target, look
 
 
 def _pose_dict(T: np.ndarray) -> dict[str, list[float]]:
@@ -266,21 +267,29 @@ def run_pick_place(cmd: ArmCommand, arm: ArmMotion, session: zenoh.Session, keys
     run = PickPlace(arm, gripper, cmd.speed, progress)
     safety: Safety = getattr(arm, "safety", None) or Safety(ArmConfig())
     error, status = "", "done"
-    target = cmd.target
+    target, look = cmd.target, None
+    details: dict[str, object] = {}
     try:
         if target is None:
-            target = find_target(arm, safety, session, keys, progress, cmd.speed)
+            target, look = find_target(arm, safety, session, keys, progress, cmd.speed)
         place = place_of(cmd, target, safety)
         planned = check_pick_place(cmd, target, safety, arm.q())  # TargetRefused: nothing moved
         progress.add("check", "done", f"{len(planned)} motions within the safety rules, place flange at "
                                       f"{np.round(place['position'], 4).tolist()} m")  # fmt: skip
         run.run(target, place, planned)
+        if look is not None and cmd.place_object is not None:
+            details["seen"] = seen = look.verify(np.array(target.object_center), np.array(cmd.place_object))
+            if not (seen["placed_error_mm"] <= survey.PLACED_TOL_MM and seen["a_empty"]):  # type: ignore[operator]
+                error = f"seen at B: {seen}"
     except PhaseFailed as e:
         error, status = str(e), e.status
     finally:
+        if look is not None:
+            look.detections.close()
         progress.close()
+    status = "failed" if error and status == "done" else status
     T = arm.T_base_flange()
-    details: dict[str, object] = {"reached": {name: _pose_dict(Tn) for name, Tn in run.reached.items()}}
+    details["reached"] = {name: _pose_dict(Tn) for name, Tn in run.reached.items()}
     if target is not None:
         details["target"] = target.model_dump(mode="json")
     return ArmResult(

@@ -13,14 +13,16 @@ from __future__ import annotations
 import threading
 import time
 from collections.abc import Callable
+from pathlib import Path
 
 import numpy as np
 import zenoh
 from sofia_runtime.client import QueryError, ask
 from sofia_schemas import Board
+from sofia_schemas.files import FileContentError, load_json_or_yaml
 from sofia_schemas.keys import Keys
 from sofia_schemas.messages import CalibrationResult, DetectedObject, Detection, PickTarget
-from sofia_schemas.transforms import apply, invert
+from sofia_schemas.transforms import apply, as_transforms, invert
 
 from .autocal_io import Progress
 from .errors import PhaseFailed, TargetRefused
@@ -38,15 +40,26 @@ ROLLS_DEG = (0.0, 90.0, 180.0, 270.0)
 CENTRED_HEIGHTS_M = np.arange(0.40, 0.75, 0.05)  # camera above an object in the second view
 DETECTION_WAIT_S = 15.0  # for a detection of a cloud taken at the survey pose
 MIN_CONFIDENCE = 0.5  # the detector's own floor for a pick
+A_EMPTY_M = 0.02  # no object centre this close to where the object was picked: the place is empty
+PLACED_TOL_MM = 5.0  # the object seen this close to B: placed
 
 
-def calibration(session: zenoh.Session, keys: Keys, timeout_s: float = 2.0) -> np.ndarray | None:
-    """The calibrator's latest ``T_flange_cam`` (4, 4), or None when no calibrator answers."""
+def calibration(session: zenoh.Session, keys: Keys, transform_file: Path | None = None,
+                timeout_s: float = 2.0) -> np.ndarray | None:  # fmt: skip
+    """``T_flange_cam`` (4, 4): the calibrator's latest result, else the ``transform_file``
+    (``matrix``, 4 x 4), else None."""
     try:
         result = ask(session, keys.calibration_result, CalibrationResult, timeout=timeout_s)
+        return np.array(result.matrix, dtype=np.float64)
     except QueryError:
+        pass
+    if transform_file is None:
         return None
-    return np.array(result.matrix, dtype=np.float64)
+    try:
+        data = load_json_or_yaml(transform_file)
+        return as_transforms(np.array(data["matrix"], dtype=np.float64), "matrix", tol=1e-4)  # type: ignore[index]
+    except (OSError, FileContentError, KeyError, TypeError, ValueError) as e:
+        raise TargetRefused(f"pick_place survey: transform file {transform_file}: {e}") from None
 
 
 def board_corners(board: Board) -> np.ndarray:
@@ -57,12 +70,17 @@ def board_corners(board: Board) -> np.ndarray:
     return apply(board.T_base_board, corners_board)
 
 
-def views_above(p_base: np.ndarray, heights_m: np.ndarray, T_flange_cam: np.ndarray) -> np.ndarray:
-    """(len(heights) * 4, 4, 4) flange poses putting the camera straight above ``p_base`` (3,)
-    at each height (lowest first) and roll of ``ROLLS_DEG``."""
+def views_above(
+    p_base: np.ndarray, heights_m: np.ndarray, T_flange_cam: np.ndarray, yaw: float = 0.0
+) -> np.ndarray:
+    """(len(heights) * 8, 4, 4) flange poses putting the camera straight above ``p_base`` (3,)
+    at each height (lowest first), the image turned by ``ROLLS_DEG`` plus or minus ``yaw`` (rad:
+    the image's axes along a board's)."""
+    roll_set = np.radians(np.array(ROLLS_DEG))
+    roll_set = np.r_[roll_set + yaw, roll_set - yaw]
     eyes = np.repeat(np.asarray(p_base, dtype=np.float64)[None] + np.c_[0 * heights_m, 0 * heights_m, heights_m],
-                     len(ROLLS_DEG), axis=0)  # fmt: skip
-    rolls = np.radians(np.tile(ROLLS_DEG, len(heights_m)))
+                     len(roll_set), axis=0)  # fmt: skip
+    rolls = np.tile(roll_set, len(heights_m))
     T_base_cam = look_at(eyes, p_base, rolls)
     return np.asarray(T_base_cam @ invert(T_flange_cam))
 
@@ -72,7 +90,7 @@ def survey_views(board: Board, T_flange_cam: np.ndarray, K: np.ndarray = CAMERA_
     """(m, 4, 4) flange poses from which the camera (intrinsics K (3, 3), image ``size``) sees
     every corner of the board, lowest camera first."""
     centre = board.T_base_board[:3, 3]
-    T_bf = views_above(centre, HEIGHTS_M, T_flange_cam)
+    T_bf = views_above(centre, HEIGHTS_M, T_flange_cam, board.yaw)
     T_bc = T_bf @ T_flange_cam
     corners = board_corners(board)
     p_cam = np.einsum("nij,kj->nki", invert(T_bc)[:, :3, :3], corners) + invert(T_bc)[:, None, :3, 3]
@@ -200,3 +218,17 @@ class Survey:
             if not objs:
                 raise PhaseFailed("second view", f"still no object {what} to pick in view")
         return objs[0], det.stamp_ns
+
+    def verify(self, A_base: np.ndarray, B_base: np.ndarray) -> dict[str, object]:
+        """Back at the survey pose, a fresh detection: the horizontal distance (mm) of the nearest
+        object to B (3,) and whether the pick place A (3,) is empty (base frame, m)."""
+        det = self._look("verify", survey_views(self.board, self.T_fc), "camera above the board again")
+        centres = np.array([o.center for o in det.objects], dtype=np.float64).reshape(-1, 3)
+        to_B = np.linalg.norm(centres[:, :2] - B_base[:2], axis=1)
+        to_A = np.linalg.norm(centres[:, :2] - A_base[:2], axis=1)
+        placed_mm = float(1e3 * to_B.min()) if len(centres) else float("inf")
+        a_empty = bool(np.all(to_A > A_EMPTY_M))
+        self.progress.add("seen at B", "done" if placed_mm <= PLACED_TOL_MM and a_empty else "failed",
+                          f"object {placed_mm:.1f} mm from B, A {'empty' if a_empty else 'NOT empty'} "
+                          f"({len(centres)} objects seen)")  # fmt: skip
+        return {"placed_error_mm": round(placed_mm, 2), "a_empty": a_empty, "objects_seen": len(centres)}

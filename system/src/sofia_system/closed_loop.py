@@ -5,7 +5,8 @@ Steps: the arm calibrates the camera by itself (result against the camera's true
 the detector finds the object on the board through that calibration (against the true centre),
 the arm surveys the board, picks the object at A and sets it down at B (grasp pose against the true
 centre, gripper grasped), then sees it at B and A empty. The camera, the gripper emulator and the
-arm share the simulated world (``SOFIA_SIM_WORLD``): the object moves with the fingers.
+arm share the simulated world (``SOFIA_SIM_WORLD``): the object moves with the fingers. Last, the
+lab's sorting task (:mod:`.sort_step`): three colours onto their places, a distractor left alone.
 """
 
 from __future__ import annotations
@@ -26,6 +27,7 @@ from sofia_schemas.transforms import rotation_angle
 
 from .bus import Collector, wait_until
 from .launcher import Launcher, ServiceSpec
+from .sort_step import sort_step
 from .steps import sofia
 from .summary import Summary, say
 from .wording import field_text, transform_text
@@ -40,8 +42,10 @@ def _truth(scene: str, robot: str) -> dict:
     return dict(json.loads(out.stdout))
 
 
-def _camera(scene: str, log_dir: Path, robot: str, env: dict[str, str]) -> Launcher:
-    cam = Launcher([ServiceSpec("camera", ["camera", "serve", "--sim", "--sim-scene", scene], "camera")],
+def _camera(
+    scene: str, log_dir: Path, robot: str, env: dict[str, str], extra: list[str] | None = None
+) -> Launcher:
+    cam = Launcher([ServiceSpec("camera", ["camera", "serve", "--sim", "--sim-scene", scene, *(extra or [])], "camera")],
                    log_dir, robot, env)  # fmt: skip
     cam.start()
     return cam
@@ -172,6 +176,11 @@ def run_cell(out: Path, robot: str, board: Path, summary: Summary) -> None:
             center = np.array(obj["center"])
             if detect(session, keys, center, summary):
                 pick_place(session, keys, center, Board.from_file(board), summary)
+            camera.stop()  # the sorting task: three colours and a distractor, a new world
+            world.unlink(missing_ok=True)
+            camera = _camera("board", log_dir, cell, env, ["--sim-kind", "sort"])
+            _healthy(session, [camera], 60)
+            sort_step(session, keys, Board.from_file(board), world, SPEED, _ask_arm, summary)
     finally:
         camera.stop()
         services.stop()

@@ -14,7 +14,9 @@ from pydantic import Field, field_validator, model_validator
 from .base import Finite, Message, Quat, Vec3
 from .pick import PickTarget
 
-ArmCommandName = Literal["move_joints", "move_pose", "home", "stop", "recover", "pick_place", "calibrate"]
+ArmCommandName = Literal[
+    "move_joints", "move_pose", "home", "stop", "recover", "pick_place", "calibrate", "sort_colours"
+]
 ArmStatus = Literal["done", "stopped", "preempted", "failed", "timeout"]
 ArmMode = Literal["idle", "moving", "error", "disconnected", "stopping"]
 JOINTS = 7
@@ -41,7 +43,10 @@ class ArmCommand(Message):
       ``pick/target``) and where to place it: ``place_position`` (+ optional
       ``place_quaternion_xyzw``) of the flange, or ``place_object``, the point on the surface
       under the object's centre where the object should end up (base frame, m);
-    - ``calibrate``: options in ``calibrate`` (free dict, read by the autonomous calibration).
+    - ``calibrate``: options in ``calibrate`` (free dict, read by the autonomous calibration);
+    - ``sort_colours``: ``places_by_colour``, colour name -> the point on the surface where
+      objects of that colour should end up (base frame, m); every object of those colours is
+      picked and placed, colour by colour in the mapping's order.
 
     ``speed`` is relative to the robot's maximum velocity, acceleration and jerk, capped by the
     service's configured limits; ``timeout_s`` bounds the whole command.
@@ -57,6 +62,7 @@ class ArmCommand(Message):
     place_position: Vec3 | None = None
     place_quaternion_xyzw: Quat | None = None
     place_object: Vec3 | None = None
+    places_by_colour: dict[str, Vec3] = {}
     calibrate: dict[str, Any] = {}
 
     @field_validator("quaternion_xyzw")
@@ -82,6 +88,8 @@ class ArmCommand(Message):
                 "pick_place needs one of place_position (x y z, m) of the flange or place_object "
                 "(x y z, m: the point on the surface under the object's centre where it should end up)"
             )
+        if self.command == "sort_colours" and not self.places_by_colour:
+            raise ValueError("sort_colours needs places_by_colour: colour name -> place (x y z, m)")
         return self
 
 

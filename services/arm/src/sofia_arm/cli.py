@@ -89,6 +89,11 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
                        help="where the object should end up: the point on the surface under its centre, "
                             "base frame, m")  # fmt: skip
     pp.set_defaults(func=_command, action="pick-place")
+    so = command("sort", "pick every object of the given colours and set each down at its colour's place")
+    so.add_argument("--place", nargs=4, action="append", required=True, metavar=("COLOUR", "X", "Y", "Z"),
+                    help="a colour (yellow, green, blue, ...) and where its objects should end up: the point "
+                         "on the surface under the object's centre, base frame, m; repeat in the order to sort")  # fmt: skip
+    so.set_defaults(func=_command, action="sort")
     st = command("state", "print the arm's state")
     st.set_defaults(func=_state)
 
@@ -118,6 +123,10 @@ def build_command(args: argparse.Namespace) -> ArmCommand:
         fields.update(command="move_pose", position=args.pose[:3], quaternion_xyzw=args.pose[3:])
     elif args.action == "pick-place":
         fields.update(command="pick_place", place_position=args.place, place_object=args.place_object)
+    elif args.action == "sort":
+        fields.update(
+            command="sort_colours", places_by_colour={p[0]: [float(v) for v in p[1:]] for p in args.place}
+        )
     else:
         fields["command"] = args.action
     return ArmCommand.model_validate(fields)

@@ -28,7 +28,8 @@ from .safety import Safety
 log = logging.getLogger(__name__)
 RECOVER_TIMEOUT_S = 10.0
 COMPOUND = {"pick_place": ("sofia_arm.pick_place", "run_pick_place"),
-            "calibrate": ("sofia_arm.autocal", "run_autocal")}  # fmt: skip
+            "calibrate": ("sofia_arm.autocal", "run_autocal"),
+            "sort_colours": ("sofia_arm.sort", "run_sort")}  # fmt: skip
 
 
 def load_compound(command: str) -> Callable[..., ArmResult]:
@@ -120,6 +121,10 @@ class Commands:
             from .pick_place import check_pick_place  # the same checks it runs before its first motion
 
             check_pick_place(cmd, cmd.target, c.safety, s.q)
+        elif cmd.command == "sort_colours":
+            from .sort import check_sort
+
+            check_sort(cmd, c.safety, s.q)
         elif cmd.command == "calibrate":
             from .autocal_options import AutocalOptions
 

@@ -256,15 +256,21 @@ def _pose_dict(T: np.ndarray) -> dict[str, list[float]]:
     return {"position": T[:3, 3].tolist(), "quaternion_xyzw": matrix_to_quat_xyzw(T[:3, :3]).tolist()}
 
 
+def bus_gripper(session: zenoh.Session, keys: Keys) -> Callable[[GripperCommand], GripperResult]:
+    """Gripper commands through the gripper service on the bus."""
+
+    def gripper(c: GripperCommand) -> GripperResult:
+        return ask(session, keys.gripper_command, GripperResult, c.model_dump_json(), timeout=c.timeout_s + 5)
+
+    return gripper
+
+
 def run_pick_place(cmd: ArmCommand, arm: ArmMotion, session: zenoh.Session, keys: Keys) -> ArmResult:
     """The arm service's ``pick_place`` command."""
     t0 = time.monotonic()
     progress = Progress(session, keys)
 
-    def gripper(c: GripperCommand) -> GripperResult:
-        return ask(session, keys.gripper_command, GripperResult, c.model_dump_json(), timeout=c.timeout_s + 5)
-
-    run = PickPlace(arm, gripper, cmd.speed, progress)
+    run = PickPlace(arm, bus_gripper(session, keys), cmd.speed, progress)
     safety: Safety = getattr(arm, "safety", None) or Safety(ArmConfig())
     error, status = "", "done"
     target, look = cmd.target, None

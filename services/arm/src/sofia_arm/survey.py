@@ -197,16 +197,27 @@ class Survey:
                                     "(is the detector running?)")  # fmt: skip
         return det
 
-    def find(self, colours: tuple[str, ...] | None = None) -> tuple[DetectedObject, int]:
-        """An object to pick (of ``colours``, else on a red field) and the stamp of its detection;
+    def find(self, colours: tuple[str, ...] | None = None,
+             exclude_near: np.ndarray | None = None) -> tuple[DetectedObject, int]:  # fmt: skip
+        """An object to pick (of ``colours``, else on a red field; none within ``A_EMPTY_M`` of
+        ``exclude_near`` (3,), base frame: one already placed) and the stamp of its detection;
         PhaseFailed when there is none."""
         det = self._look(
             "survey", survey_views(self.board, self.T_fc), "camera straight above the board centre"
         )
         what = "on a red field" if colours is None else f"of colour {'/'.join(colours)}"
-        objs = pickable(det, colours)
+
+        def away(o: DetectedObject) -> bool:
+            return (
+                exclude_near is None
+                or float(np.linalg.norm(np.array(o.center[:2]) - exclude_near[:2])) > A_EMPTY_M
+            )
+
+        objs = [o for o in pickable(det, colours) if away(o)]
         if not objs:
-            cut = [o for o in det.objects if (o.allowed if colours is None else o.colour in colours)]
+            cut = [
+                o for o in det.objects if (o.allowed if colours is None else o.colour in colours) and away(o)
+            ]
             if not cut:
                 names = [f"{o.colour or '?'} ({o.confidence:.2f})" for o in det.objects]
                 raise PhaseFailed("survey", f"no object {what} in view (seen: {names or 'none'})")
@@ -214,7 +225,7 @@ class Survey:
             det = self._look("second view", views_above(np.array(o.center), CENTRED_HEIGHTS_M, self.T_fc),
                              f"centred on the object at {np.round(o.center, 3).tolist()} m (confidence "
                              f"{o.confidence:.2f}, {', '.join(o.truncated) or 'not truncated'})")  # fmt: skip
-            objs = pickable(det, colours)
+            objs = [o for o in pickable(det, colours) if away(o)]
             if not objs:
                 raise PhaseFailed("second view", f"still no object {what} to pick in view")
         return objs[0], det.stamp_ns
@@ -232,3 +243,16 @@ class Survey:
                           f"object {placed_mm:.1f} mm from B, A {'empty' if a_empty else 'NOT empty'} "
                           f"({len(centres)} objects seen)")  # fmt: skip
         return {"placed_error_mm": round(placed_mm, 2), "a_empty": a_empty, "objects_seen": len(centres)}
+
+    def verify_colours(self, places: dict[str, np.ndarray]) -> dict[str, float]:
+        """Back at the survey pose, a fresh detection: for each colour, the horizontal distance (mm)
+        of the nearest object of that colour to its place (3,), base frame (inf: none seen)."""
+        det = self._look("verify", survey_views(self.board, self.T_fc), "camera above the board again")
+        out: dict[str, float] = {}
+        for colour, B in places.items():
+            d = [np.linalg.norm(np.array(o.center[:2]) - B[:2]) for o in det.objects if o.colour == colour]
+            out[colour] = round(float(1e3 * min(d)), 2) if d else float("inf")
+        ok = all(v <= PLACED_TOL_MM for v in out.values())
+        self.progress.add("seen at the places", "done" if ok else "failed",
+                          ", ".join(f"{c} {v:.1f} mm" for c, v in out.items()))  # fmt: skip
+        return out

@@ -101,3 +101,21 @@ def test_the_keeper_carries_the_grasped_object_and_sets_it_down_below_the_finger
     p_board = invert(T_board) @ np.r_[w.objects[0].centre(), 1.0]
     assert p_board[2] == pytest.approx(0.025)  # resting on the board: half its height above it
     np.testing.assert_allclose(w.objects[0].centre()[:2], B[:2], atol=0.003)  # below the fingertips (tilt)
+
+
+def test_a_low_object_is_held_higher_within_its_height() -> None:
+    from sofia_arm.survey import GRASP_CLEARANCE_M, pick_of
+    from sofia_schemas.messages import DetectedObject
+
+    safety = Safety(ArmConfig())
+
+    def obj(z: float, h: float) -> DetectedObject:
+        return DetectedObject(center=(0.5, 0.0, z), centroid=(0.5, 0.0, z), extents=(0.05, 0.04, h), yaw=0.0,
+                              field=None, allowed=True, n_points=500, confidence=0.95)  # fmt: skip
+
+    tips_z = pick_of(obj(0.025, 0.05), 1, safety).grasp_translation[2] - 0.2
+    assert tips_z == pytest.approx(0.025)  # centre high enough: held at its centre
+    tips_z = pick_of(obj(0.004, 0.05), 1, safety).grasp_translation[2] - 0.2  # a board lower than configured
+    assert tips_z == pytest.approx(safety.surface.lowest_allowed + GRASP_CLEARANCE_M)
+    tips_z = pick_of(obj(0.002, 0.012), 1, safety).grasp_translation[2] - 0.2  # too flat: left at its centre
+    assert tips_z == pytest.approx(0.002)  # ... and refused by the rules before any motion

@@ -42,6 +42,9 @@ class ArmConfig(BaseModel):
     surface_z: float = Field(0.0, ge=-1.0, le=1.0)
     board_file: Path | None = None
     surface_margin_m: float = Field(0.005, ge=0.0, le=0.2)
+    gripper_max_opening_mm: float = Field(
+        100.0, gt=0.0
+    )  # picks the arm plans open the fingers at most this far
     # flange -> camera transform for the survey when no calibrator answers (YAML/JSON with ``matrix``,
     # as the detector's --transform file); the calibrator's latest result wins when there is one
     transform_file: Path | None = None

@@ -15,14 +15,12 @@ a grasp that does not report ``grasped`` ends the sequence (the arm backs off up
 
 from __future__ import annotations
 
-import threading
 import time
 from collections.abc import Callable
 
 import numpy as np
 import zenoh
 from sofia_runtime.client import QueryError, ask
-from sofia_schemas import Board
 from sofia_schemas.keys import Keys
 from sofia_schemas.messages import ArmCommand, ArmResult, GripperCommand, GripperResult, PickTarget
 from sofia_schemas.transforms import make_transform, matrix_to_quat_xyzw
@@ -34,38 +32,14 @@ from .errors import PhaseFailed, TargetRefused
 from .motion import ArmMotion
 from .poses import pose_distance
 from .safety import Safety, StepKind
+from .targets import find_target
 
-TARGET_WAIT_S = 5.0  # how long to wait for a pick target on the bus when none is given
 LIFT_M = 0.10  # above the grasp and the place pose
 GRASP_FORCE_N = 10.0
 GRIPPER_ATTEMPTS = 4
 NEAR_M, NEAR_DEG = 0.001, 0.5  # a move the arm reports off its tolerance still serves this close
 PLACE_CLEARANCE_M = 0.002  # the object is released this far above its resting height
 DEFAULT_FINGERTIP_OFFSET_M = 0.20
-
-
-def latest_target(session: zenoh.Session, keys: Keys, timeout_s: float = TARGET_WAIT_S) -> PickTarget:
-    """The next :class:`PickTarget` published on ``pick/target`` within ``timeout_s``."""
-    got: list[PickTarget] = []
-    event = threading.Event()
-
-    def on_target(s: zenoh.Sample) -> None:
-        try:
-            got.append(PickTarget.model_validate_json(s.payload.to_bytes()))
-            event.set()
-        except ValueError:
-            pass
-
-    sub = session.declare_subscriber(keys.pick_target, on_target)
-    try:
-        if not event.wait(timeout_s):
-            raise PhaseFailed("target", f"no pick target given and none published on {keys.pick_target} "
-                                        f"within {timeout_s} s (is the detector running and seeing an object on a red field? "
-                                        "It publishes none for objects below its --pick-min-confidence, such as "
-                                        "objects cut by the image border: see `sofia health detector`, picks_withheld)")  # fmt: skip
-        return got[-1]
-    finally:
-        sub.undeclare()
 
 
 def plan_poses(target: PickTarget, place_position: np.ndarray, place_q_xyzw: np.ndarray | None,
@@ -97,15 +71,17 @@ def place_flange_position(target: PickTarget, place_object: np.ndarray, surface_
                           R_base_flange: np.ndarray) -> np.ndarray:  # fmt: skip
     """(3,) flange position (base frame, m) that sets the object down with its centre above
     ``place_object`` (3,): the point B on the supporting surface (base frame, m) under the object's
-    centre. The object keeps its height above the surface it was picked from (``surface_z``); the
-    fingertips, ``fingertip_offset_m`` along the flange z axis of ``R_base_flange`` (3, 3), hold it
-    at its centre and let go ``PLACE_CLEARANCE_M`` above its resting height."""
+    centre. The fingertips, ``fingertip_offset_m`` along the flange z axis of ``R_base_flange``
+    (3, 3), hold the object as high above B as they held it above the surface it was picked from
+    (``surface_z``), and let go ``PLACE_CLEARANCE_M`` above its resting height."""
     B = np.asarray(place_object, dtype=np.float64)
     offset = (
         target.fingertip_offset_m if target.fingertip_offset_m is not None else DEFAULT_FINGERTIP_OFFSET_M
     )
-    centre_height = max(target.object_center[2] - surface_z, 0.0)
-    p_tips = B + np.array([0.0, 0.0, centre_height + PLACE_CLEARANCE_M])
+    R_grasp = make_transform(np.zeros(3), np.array(target.rotation_xyzw))[:3, :3]
+    tips_grasp = np.array(target.grasp_translation) + R_grasp[:, 2] * offset
+    held_height = max(float(tips_grasp[2]) - surface_z, 0.0)
+    p_tips = B + np.array([0.0, 0.0, held_height + PLACE_CLEARANCE_M])
     return np.asarray(p_tips - R_base_flange[:, 2] * offset)
 
 
@@ -226,30 +202,6 @@ class PickPlace:
         self._phase("lower", lambda: self.line("lower", poses["place"]))
         self._phase("release", lambda: self.grip("release", GripperCommand(action="release")))
         self._phase("retreat", lambda: self.line("retreat", poses["above_place"]))
-
-
-def find_target(arm: ArmMotion, safety: Safety, session: zenoh.Session, keys: Keys, progress: Progress,
-                speed: float, colours: tuple[str, ...] | None = None) -> tuple[PickTarget, survey.Survey | None]:  # fmt: skip
-    """A target to pick found by a survey (:mod:`sofia_arm.survey`) through the calibrator's latest
-    result (or the configured transform), and the survey (close its detections); without either,
-    the detector's next published target and None."""
-    T_flange_cam = survey.calibration(session, keys, safety.config.transform_file)
-    if T_flange_cam is None:
-        target = latest_target(session, keys)
-        progress.add("target", "done", f"object at {np.round(target.object_center, 4).tolist()} m "
-                                       "(published; no calibration on the bus to survey with)")  # fmt: skip
-        return target, None
-    board = Board.from_file(safety.config.board_file) if safety.config.board_file else Board.default()
-    look = survey.Survey(arm, safety, progress, survey.Detections(session, keys), board, T_flange_cam, speed)
-    try:
-        obj, stamp_ns = look.find(colours)
-    except BaseException:
-        look.detections.close()
-        raise
-    target = survey.pick_of(obj, stamp_ns, safety)
-    progress.add("target", "done", f"{obj.colour or ''} object at {np.round(target.object_center, 4).tolist()} m, "
-                                   f"confidence {obj.confidence:.2f}".lstrip())  # fmt: skip
-    return target, look
 
 
 def _pose_dict(T: np.ndarray) -> dict[str, list[float]]:

@@ -64,13 +64,13 @@ def run_sort(cmd: ArmCommand, arm: ArmMotion, session: zenoh.Session, keys: Keys
             "sort_colours needs the camera's calibration: run the calibrator or give the arm --transform"
         )
     board = Board.from_file(safety.config.board_file) if safety.config.board_file else Board.default()
+    views = survey.survey_views(board, T_flange_cam)
+    survey.first_safe(safety, "survey", views, arm.q(), "sort_colours")  # refused: nothing moved
     progress = Progress(session, keys)
     look = survey.Survey(
         arm, safety, progress, survey.Detections(session, keys), board, T_flange_cam, cmd.speed
     )
-    survey.first_safe(
-        safety, "survey", survey.survey_views(board, T_flange_cam), arm.q()
-    )  # refused: nothing moved
+    look.command = "sort_colours"
     places = {c: np.array(B) for c, B in cmd.places_by_colour.items()}
     sorted_: list[dict[str, object]] = []
     errors: list[str] = []

@@ -42,6 +42,8 @@ DETECTION_WAIT_S = 15.0  # for a detection of a cloud taken at the survey pose
 MIN_CONFIDENCE = 0.5  # the detector's own floor for a pick
 A_EMPTY_M = 0.02  # no object centre this close to where the object was picked: the place is empty
 PLACED_TOL_MM = 5.0  # the object seen this close to B: placed
+GRASP_CLEARANCE_M = 0.002  # a low object's grasp: the fingertips this far above the lowest allowed height
+MIN_GRIP_M = 0.01  # ... while this much of the object stays above them
 
 
 def calibration(session: zenoh.Session, keys: Keys, transform_file: Path | None = None,
@@ -137,30 +139,44 @@ class Detections:
         self.sub.undeclare()
 
 
-def first_safe(
-    safety: Safety, what: str, views: np.ndarray, q_now: np.ndarray
-) -> tuple[np.ndarray, np.ndarray]:
+def first_safe(safety: Safety, what: str, views: np.ndarray, q_now: np.ndarray,
+               command: str = "pick_place") -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
     """(flange pose (4, 4), joints (7,)) of the first view that passes every safety rule;
-    TargetRefused with the first view's refusal when none does."""
+    TargetRefused naming ``command`` with the first view's refusal when none does."""
     first: TargetRefused | None = None
     for T in views:
         try:
-            return T, safety.check_plan("pick_place", [(what, what, "joints", T)], q_now)[what]
+            return T, safety.check_plan(command, [(what, what, "joints", T)], q_now)[what]
         except TargetRefused as e:
             first = first or e
     if first is None:
-        raise TargetRefused(f"pick_place {what}: no view of it with the camera {IMAGE_SIZE} px")
+        raise TargetRefused(f"{command} {what}: no view of it with the camera {IMAGE_SIZE} px")
     raise TargetRefused(
-        f"pick_place {what}: none of {len(views)} views passes the safety rules; the first: {first}"
+        f"{command} {what}: none of {len(views)} views passes the safety rules; the first: {first}"
     )
 
 
 def pick_of(obj: DetectedObject, stamp_ns: int, safety: Safety) -> PickTarget:
-    """The detector's top-down pick of ``obj`` (fingertips at its centre), with this tool's offset."""
+    """The detector's top-down pick of ``obj`` (fingertips at its centre), with this tool's offset.
+
+    An object whose centre lies closer to the surface than its margin allows (a low object, a
+    board lower than configured) is held higher: the fingertips at the lowest allowed height plus
+    ``GRASP_CLEARANCE_M``, while that leaves at least ``MIN_GRIP_M`` of the object above them."""
     from sofia_detector.pick import PickParams, pick_target
 
     offset = safety.tool.fingertip_offset_m or PickParams().fingertip_offset
-    return pick_target(obj, stamp_ns, params=PickParams(fingertip_offset=offset))
+    params = PickParams(fingertip_offset=offset, max_opening_mm=safety.config.gripper_max_opening_mm)
+    target = pick_target(obj, stamp_ns, params=params)
+    floor = safety.surface.lowest_allowed + GRASP_CLEARANCE_M
+    top = obj.center[2] + obj.extents[2] / 2
+    dz = floor - obj.center[2]
+    if dz > 0 and floor <= top - MIN_GRIP_M:
+        up = np.array([0.0, 0.0, dz])
+        target = target.model_copy(update={
+            "grasp_translation": tuple(float(v) for v in np.array(target.grasp_translation) + up),
+            "pregrasp_translation": tuple(float(v) for v in np.array(target.pregrasp_translation) + up),
+        })  # fmt: skip
+    return target
 
 
 class Survey:
@@ -171,13 +187,14 @@ class Survey:
         self.arm, self.safety, self.progress, self.detections = arm, safety, progress, detections
         self.board, self.T_fc, self.speed = board, T_flange_cam, speed
         self.moved = False
+        self.command = "pick_place"  # named in refusals
 
     def _look(self, name: str, views: np.ndarray, text: str) -> Detection:
         """Go to the first safe view (TargetRefused when none is and nothing moved yet), wait
         until still, and return a detection of a cloud taken there."""
         t0 = time.monotonic()
         try:
-            T, q = first_safe(self.safety, name, views, self.arm.q())
+            T, q = first_safe(self.safety, name, views, self.arm.q(), self.command)
         except TargetRefused as e:
             if not self.moved:
                 raise

@@ -43,6 +43,9 @@ def check_sort(cmd: ArmCommand, safety: Safety, q_start: np.ndarray) -> None:
     """The place poses of every colour, checked from ``q_start`` (7,); TargetRefused naming the
     colour, the pose and the rule."""
     for colour, B in cmd.places_by_colour.items():
+        if B[2] < safety.surface.z - 1e-3:
+            raise TargetRefused(f"sort_colours place of {colour} {list(B)} m is below the surface "
+                                f"({safety.surface.source})")  # fmt: skip
         target = nominal_target(np.array(B), safety.tool.fingertip_offset_m or 0.2)
         place = place_of(ArmCommand(command="pick_place", target=target, place_object=B), target, safety)
         steps = [

@@ -86,11 +86,20 @@ class WorldFile:
         self.mtime_ns = -1
         self.state: WorldState | None = None
 
+    def unchanged(self) -> bool:
+        """Whether the file is still the one last read (a writer then replaces it, never a newer
+        or a removed one)."""
+        try:
+            return self.path.stat().st_mtime_ns == self.mtime_ns
+        except FileNotFoundError:
+            return False
+
     def poll(self) -> bool:
-        """Re-read when the file changed; True when the state is new."""
+        """Re-read when the file changed; True when the state is new (None once the file is gone)."""
         try:
             mtime = self.path.stat().st_mtime_ns
-        except FileNotFoundError:
+        except FileNotFoundError:  # removed: a new world comes with the next file
+            self.mtime_ns, self.state = -1, None
             return False
         if mtime == self.mtime_ns:
             return False

@@ -59,8 +59,10 @@ def sort_step(session: zenoh.Session, keys: Keys, board: Board, world_file: Path
         summary.add("sort by colour", str(e), False)
         return
     after = _world_centres(world_file)
-    world_mm = {c: 1e3 * float(np.linalg.norm(after[c][:2] - np.array(by_colour[c][:2]))) for c in ORDER}
-    distractor_mm = 1e3 * float(np.linalg.norm(after["purple"] - before["purple"]))
+    world_mm = {c: 1e3 * float(np.linalg.norm(after[c][:2] - np.array(by_colour[c][:2]))) if c in after else np.inf
+                for c in ORDER}  # fmt: skip
+    distractor_mm = (1e3 * float(np.linalg.norm(after["purple"] - before["purple"]))
+                     if "purple" in after and "purple" in before else np.inf)  # fmt: skip
     seen = res.details.get("seen_error_mm", {})
     picks = res.details.get("sorted", [])
     times = ", ".join(f"{p['colour']} {p.get('duration_s', '?')} s" for p in picks)

@@ -105,7 +105,7 @@ class WorldKeeper:
         if obj is not None and not obj.held and g is not None and g.grasped:
             obj.held, obj.T_flange_obj = True, (invert(T) @ obj.pose()).tolist()
             log.info("simulated world: object %d grasped", obj.id)
-        if new.model_dump() != state.model_dump():
+        if new.model_dump() != state.model_dump() and self.file.unchanged():
             new.version = state.version + 1
             write_world(self.file.path, new)
             self.file.poll()

@@ -73,7 +73,7 @@ def test_pick_and_place_in_the_simulated_cell(
         res = ask(session, keys.arm_command, ArmResult, cmd.model_dump_json(), timeout=540)
     phases = {p.name: p for p in res.phases}
     assert res.ok, (res.reason, [(p.name, p.status, p.reason) for p in res.phases], procs[0].log()[-3000:])
-    assert list(phases) == ["target", "open", "pregrasp", "descend", "grasp", "lift", "move", "lower", "release",
+    assert list(phases) == ["target", "check", "open", "pregrasp", "descend", "grasp", "lift", "move", "lower", "release",
                             "retreat"]  # fmt: skip
     assert "grasped True" in phases["grasp"].reason
     reached = res.details["reached"]

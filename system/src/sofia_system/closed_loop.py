@@ -3,12 +3,16 @@ D435 rendering from the live flange pose, the calibrator, the detector and the e
 
 Steps: the arm calibrates the camera by itself (result against the camera's true T_flange_cam),
 the detector finds the object on the board through that calibration (against the true centre),
-the arm picks it and places it (grasp pose against the true centre, gripper grasped, place reached).
+the arm surveys the board, picks the object at A and sets it down at B (grasp pose against the true
+centre, gripper grasped), then sees it at B and A empty. The camera, the gripper emulator and the
+arm share the simulated world (``SOFIA_SIM_WORLD``): the object moves with the fingers. Last, the
+lab's sorting task (:mod:`.sort_step`): three colours onto their places, a distractor left alone.
 """
 
 from __future__ import annotations
 
 import json
+import os
 import time
 from pathlib import Path
 
@@ -16,17 +20,18 @@ import numpy as np
 import zenoh
 from sofia_runtime import zenoh_config
 from sofia_runtime.client import QueryError, ask
-from sofia_schemas import Keys
+from sofia_schemas import Board, Keys
 from sofia_schemas.messages import ArmCommand, ArmPhase, ArmResult, Detection
+from sofia_schemas.sim_world import ENV_SIM_WORLD
 from sofia_schemas.transforms import rotation_angle
 
 from .bus import Collector, wait_until
 from .launcher import Launcher, ServiceSpec, all_ready, board_args
+from .sort_step import sort_step
 from .steps import sofia
 from .summary import Summary, say
 from .wording import field_text, transform_text
 
-PLACE = (0.45, -0.25, 0.25)  # flange position of the place pose, base frame, metres
 SPEED = 1.0  # franky-sim at full relative speed (a real arm: the service's limits cap it)
 
 
@@ -37,9 +42,11 @@ def _truth(scene: str, robot: str) -> dict:
     return dict(json.loads(out.stdout))
 
 
-def _camera(scene: str, log_dir: Path, robot: str) -> Launcher:
-    cam = Launcher([ServiceSpec("camera", ["camera", "serve", "--sim", "--sim-scene", scene], "camera")],
-                   log_dir, robot)  # fmt: skip
+def _camera(
+    scene: str, log_dir: Path, robot: str, env: dict[str, str], extra: list[str] | None = None
+) -> Launcher:
+    cam = Launcher([ServiceSpec("camera", ["camera", "serve", "--sim", "--sim-scene", scene, *(extra or [])], "camera")],
+                   log_dir, robot, env)  # fmt: skip
     cam.start()
     return cam
 
@@ -105,28 +112,37 @@ def detect(session: zenoh.Session, keys: Keys, center_true: np.ndarray, summary:
     return err < 3.0
 
 
-def pick_place(session: zenoh.Session, keys: Keys, center_true: np.ndarray, summary: Summary) -> None:
-    say(f"pick and place: the detected object to {list(PLACE)} ...")
+def place_b(board: Board, a_base: np.ndarray) -> np.ndarray:
+    """(3,) B: the centre of the red field farthest from A (3,), on the board's surface (base frame)."""
+    fields = np.array([board.field_center_base(r, c) for r, c in board.allowed])
+    return np.asarray(fields[np.argmax(np.linalg.norm(fields[:, :2] - a_base[:2], axis=1))])
+
+
+def pick_place(
+    session: zenoh.Session, keys: Keys, center_true: np.ndarray, board: Board, summary: Summary
+) -> None:
+    B = place_b(board, center_true)
+    say(f"pick and place: survey, pick the object at A, set it down at B = {np.round(B, 3).tolist()} ...")
     try:
-        res = _ask_arm(session, keys, ArmCommand(command="pick_place", place_position=PLACE, speed=SPEED,
-                                                 timeout_s=240))  # fmt: skip
+        res = _ask_arm(session, keys, ArmCommand(command="pick_place", place_object=tuple(B), speed=SPEED,  # type: ignore[arg-type]
+                                                 timeout_s=400))  # fmt: skip
     except QueryError as e:
         summary.add("pick and place", str(e), False)
         return
     reached = res.details.get("reached", {})
     offset = res.details.get("target", {}).get("fingertip_offset_m", 0.2)
-    if not res.ok or "grasp" not in reached or "lower" not in reached:
+    seen = res.details.get("seen", {})
+    if not res.ok or "grasp" not in reached or not seen:
         summary.add("pick and place", f"{res.status}: {res.reason}", False)
         return
     grasp_err = 1e3 * float(
         np.linalg.norm(np.array(reached["grasp"]["position"]) - center_true - [0, 0, offset])
     )
-    place_err = 1e3 * float(np.linalg.norm(np.array(reached["lower"]["position"]) - PLACE))
     grasped = any(p.name == "grasp" and "grasped True" in p.reason for p in res.phases)
-    ok = grasped and grasp_err < 2.0 and place_err < 1.0
+    ok = grasped and grasp_err < 2.0 and seen["placed_error_mm"] <= 5.0 and seen["a_empty"]
     summary.add("pick and place", f"{'object held' if grasped else 'NOTHING held'}; grasp pose {grasp_err:.2f} mm "
-                f"from the true one (centre + fingertip offset), placed within {place_err:.2f} mm; "
-                f"{res.duration_s:.0f} s", ok)  # fmt: skip
+                f"from the true one (centre + fingertip offset); detected again {seen['placed_error_mm']:.1f} mm "
+                f"from B, A {'empty' if seen['a_empty'] else 'NOT empty'}; {res.duration_s:.0f} s", ok)  # fmt: skip
 
 
 def run_cell(out: Path, robot: str, board: Path | None, summary: Summary) -> None:
@@ -135,16 +151,18 @@ def run_cell(out: Path, robot: str, board: Path | None, summary: Summary) -> Non
     keys, log_dir = Keys(cell), out / "logs-cell"
     calib_truth, board_truth = _truth("calibration", cell), _truth("board", cell)
     obj = board_truth["objects"][0]
-    width_mm = 1e3 * min(obj["extents"][0], obj["extents"][1])
+    world = out / "world-cell.json"  # the simulated world: camera, gripper emulator and arm share it
+    world.unlink(missing_ok=True)
+    env = dict(os.environ, **{ENV_SIM_WORLD: str(world)})
     services = Launcher([
-        ServiceSpec("arm", ["arm", "serve", "--sim", "--max-speed", str(SPEED)], "arm"),
+        ServiceSpec("arm", ["arm", "serve", "--sim", "--max-speed", str(SPEED), *board_args(board)], "arm"),
         ServiceSpec("calibrator", ["calibrator", "serve", "--state-dir", str(out / "calibrator-cell")], "calibrator"),
         ServiceSpec("detector", ["detector", "serve", *board_args(board)], "detector"),
-        ServiceSpec("gripper", ["gripper", "serve", "--emulate", "--object-width", f"{width_mm:.1f}"], "gripper"),
-    ], log_dir, cell)  # fmt: skip
-    say(f"starting the simulated cell (franky-sim, camera --sim, logs in {log_dir}) ...")
+        ServiceSpec("gripper", ["gripper", "serve", "--emulate"], "gripper"),
+    ], log_dir, cell, env)  # fmt: skip
+    say(f"starting the simulated cell (franky-sim, camera --sim, world {world}, logs in {log_dir}) ...")
     services.start()
-    camera = _camera("calibration", log_dir, cell)
+    camera = _camera("calibration", log_dir, cell, env)
     try:
         with zenoh.open(zenoh_config()) as session:
             healthy = _healthy(session, [services, camera], 120)
@@ -153,11 +171,16 @@ def run_cell(out: Path, robot: str, board: Path | None, summary: Summary) -> Non
             if not healthy or not calibrate(session, keys, np.array(calib_truth["T_flange_cam"]), summary):
                 return
             camera.stop()  # the board with the object in front of the same camera
-            camera = _camera("board", log_dir, cell)
+            camera = _camera("board", log_dir, cell, env)
             _healthy(session, [camera], 60)
             center = np.array(obj["center"])
             if detect(session, keys, center, summary):
-                pick_place(session, keys, center, summary)
+                pick_place(session, keys, center, Board.load(board), summary)
+            camera.stop()  # the sorting task: three colours and a distractor, a new world
+            world.unlink(missing_ok=True)
+            camera = _camera("board", log_dir, cell, env, ["--sim-kind", "sort"])
+            _healthy(session, [camera], 60)
+            sort_step(session, keys, Board.load(board), world, SPEED, _ask_arm, summary)
     finally:
         camera.stop()
         services.stop()

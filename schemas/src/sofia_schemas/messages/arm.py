@@ -14,7 +14,9 @@ from pydantic import Field, field_validator, model_validator
 from .base import Finite, Message, Quat, Vec3
 from .pick import PickTarget
 
-ArmCommandName = Literal["move_joints", "move_pose", "home", "stop", "recover", "pick_place", "calibrate"]
+ArmCommandName = Literal[
+    "move_joints", "move_pose", "home", "stop", "recover", "pick_place", "calibrate", "sort_colours"
+]
 ArmStatus = Literal["done", "stopped", "preempted", "failed", "timeout"]
 ArmMode = Literal["idle", "moving", "error", "disconnected", "stopping"]
 JOINTS = 7
@@ -38,8 +40,13 @@ class ArmCommand(Message):
     - ``move_pose``: ``position`` + ``quaternion_xyzw`` of the flange in the base frame;
     - ``home``, ``stop``, ``recover``: no arguments;
     - ``pick_place``: ``target`` (a :class:`PickTarget`; without it the latest one published on
-      ``pick/target``) and ``place_position`` (+ optional ``place_quaternion_xyzw``) of the flange;
-    - ``calibrate``: options in ``calibrate`` (free dict, read by the autonomous calibration).
+      ``pick/target``) and where to place it: ``place_position`` (+ optional
+      ``place_quaternion_xyzw``) of the flange, or ``place_object``, the point on the surface
+      under the object's centre where the object should end up (base frame, m);
+    - ``calibrate``: options in ``calibrate`` (free dict, read by the autonomous calibration);
+    - ``sort_colours``: ``places_by_colour``, colour name -> the point on the surface where
+      objects of that colour should end up (base frame, m); every object of those colours is
+      picked and placed, colour by colour in the mapping's order.
 
     ``speed`` is relative to the robot's maximum velocity, acceleration and jerk, capped by the
     service's configured limits; ``timeout_s`` bounds the whole command.
@@ -54,6 +61,8 @@ class ArmCommand(Message):
     target: PickTarget | None = None
     place_position: Vec3 | None = None
     place_quaternion_xyzw: Quat | None = None
+    place_object: Vec3 | None = None
+    places_by_colour: dict[str, Vec3] = {}
     calibrate: dict[str, Any] = {}
 
     @field_validator("quaternion_xyzw")
@@ -74,8 +83,13 @@ class ArmCommand(Message):
             raise ValueError("move_joints needs q: 7 joint positions in radians")
         if self.command == "move_pose" and (self.position is None or self.quaternion_xyzw is None):
             raise ValueError("move_pose needs position (x y z, m) and quaternion_xyzw of the flange")
-        if self.command == "pick_place" and self.place_position is None:
-            raise ValueError("pick_place needs place_position (x y z, m) of the flange")
+        if self.command == "pick_place" and (self.place_position is None) == (self.place_object is None):
+            raise ValueError(
+                "pick_place needs one of place_position (x y z, m) of the flange or place_object "
+                "(x y z, m: the point on the surface under the object's centre where it should end up)"
+            )
+        if self.command == "sort_colours" and not self.places_by_colour:
+            raise ValueError("sort_colours needs places_by_colour: colour name -> place (x y z, m)")
         return self
 
 

@@ -3,6 +3,7 @@
 from .config import ArmConfig, load_config
 from .errors import (
     ArmError,
+    BelowSurface,
     NotReady,
     OutsideJointLimits,
     OutsideWorkspace,
@@ -13,6 +14,15 @@ from .errors import (
 from .motion import ArmMotion
 
 __all__ = [
-    "ArmConfig", "ArmError", "ArmMotion", "NotReady", "OutsideJointLimits", "OutsideWorkspace",
-    "TargetRefused", "Unavailable", "Unreachable", "load_config",
+    "ArmConfig",
+    "ArmError",
+    "ArmMotion",
+    "BelowSurface",
+    "NotReady",
+    "OutsideJointLimits",
+    "OutsideWorkspace",
+    "TargetRefused",
+    "Unavailable",
+    "Unreachable",
+    "load_config",
 ]  # fmt: skip

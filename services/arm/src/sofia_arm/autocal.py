@@ -208,7 +208,9 @@ def run_autocal(cmd: ArmCommand, arm: ArmMotion, session: zenoh.Session, keys: K
     progress = Progress(session, keys)
     eye = BusEye(session, keys)
     try:
-        run = Autocal(arm, eye, BusCalibrator(session, keys), opts, progress)
+        safety = getattr(arm, "safety", None)  # the service's tool and surface rule, for every view
+        reach = None if safety is None else safety.planner_reach(Reach())
+        run = Autocal(arm, eye, BusCalibrator(session, keys), opts, progress, reach)
         try:
             outcome = run.run()
         except AutocalError as e:

@@ -32,6 +32,28 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
                    help="enforce: libfranka's control thread must run with real-time priority (PREEMPT_RT "
                         "kernel, rtprio for the user) or the connection fails; ignore: run without "
                         "(default ignore)")  # fmt: skip
+    s.add_argument("--tool", choices=("sofia", "flange"),
+                   help="the tool on the flange: sofia (fingers, fingertips 0.20 m below the flange; the "
+                        "config's fingertip_offset_m, finger_half_width_m) or flange (bare) (default sofia)")  # fmt: skip
+    s.add_argument(
+        "--board",
+        type=Path,
+        dest="board_file",
+        metavar="FILE",
+        help="board config: its surface_z is the surface the tool keeps clear of",
+    )
+    s.add_argument(
+        "--surface-z",
+        type=float,
+        metavar="Z",
+        help="height of the table surface, base frame, m, without --board (default 0)",
+    )
+    s.add_argument("--transform", type=Path, dest="transform_file", metavar="FILE",
+                   help="flange->camera transform (YAML/JSON with matrix) for the survey when no calibrator "
+                        "answers")  # fmt: skip
+    s.add_argument("--sim-world", type=Path, metavar="FILE",
+                   help="the simulated world's file, shared with `camera serve --sim` and the gripper emulator "
+                        "(default: $SOFIA_SIM_WORLD): objects between the fingers are carried with the flange")  # fmt: skip
     add_zenoh_args(s)
     s.set_defaults(func=_serve)
 
@@ -60,22 +82,34 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
                        ("recover", "reconnect and run the robot's automatic error recovery")):  # fmt: skip
         command(name, help).set_defaults(func=_command, action=name)
     pp = command("pick-place", "pick the latest detected object (pick/target) and place it")
-    pp.add_argument("--place", type=float, nargs=3, metavar=("X", "Y", "Z"), required=True,
-                    help="flange position to place at, base frame, m")  # fmt: skip
+    place = pp.add_mutually_exclusive_group(required=True)
+    place.add_argument("--place", type=float, nargs=3, metavar=("X", "Y", "Z"),
+                       help="flange position to place at, base frame, m")  # fmt: skip
+    place.add_argument("--place-object", type=float, nargs=3, metavar=("X", "Y", "Z"),
+                       help="where the object should end up: the point on the surface under its centre, "
+                            "base frame, m")  # fmt: skip
     pp.set_defaults(func=_command, action="pick-place")
+    so = command("sort", "pick every object of the given colours and set each down at its colour's place")
+    so.add_argument("--place", nargs=4, action="append", required=True, metavar=("COLOUR", "X", "Y", "Z"),
+                    help="a colour (yellow, green, blue, ...) and where its objects should end up: the point "
+                         "on the surface under the object's centre, base frame, m; repeat in the order to sort")  # fmt: skip
+    so.set_defaults(func=_command, action="sort")
     st = command("state", "print the arm's state")
     st.set_defaults(func=_state)
 
 
 def _serve(args: argparse.Namespace) -> int:
+    from sofia_schemas.sim_world import world_path
+
     from .config import load_config
     from .service import ServiceConfig, main
 
     f = args.max_speed
     arm = load_config(args.config, model=args.model, max_velocity=f, max_acceleration=f, max_jerk=f,
-                      state_rate_hz=args.hz, realtime=args.realtime)  # fmt: skip
+                      state_rate_hz=args.hz, realtime=args.realtime, tool=args.tool, board_file=args.board_file,
+                      surface_z=args.surface_z, transform_file=args.transform_file)  # fmt: skip
     conf = ServiceConfig(arm=arm, robot=default_robot(), zenoh=ZenohOptions.from_args(args),
-                         robot_ip=args.robot_ip, sim=args.sim)  # fmt: skip
+                         robot_ip=args.robot_ip, sim=args.sim, sim_world=args.sim_world or world_path())  # fmt: skip
     return main(conf)
 
 
@@ -88,7 +122,11 @@ def build_command(args: argparse.Namespace) -> ArmCommand:
     elif args.action == "move":
         fields.update(command="move_pose", position=args.pose[:3], quaternion_xyzw=args.pose[3:])
     elif args.action == "pick-place":
-        fields.update(command="pick_place", place_position=args.place)
+        fields.update(command="pick_place", place_position=args.place, place_object=args.place_object)
+    elif args.action == "sort":
+        fields.update(
+            command="sort_colours", places_by_colour={p[0]: [float(v) for v in p[1:]] for p in args.place}
+        )
     else:
         fields["command"] = args.action
     return ArmCommand.model_validate(fields)

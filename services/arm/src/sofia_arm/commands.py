@@ -22,12 +22,14 @@ from sofia_schemas.kinematics import pose_matrix
 from sofia_schemas.messages import ArmCommand, ArmCommandName, ArmResult
 
 from .controller import HALT_TIMEOUT_S, Controller, Token
-from .errors import ArmError, NotReady, Unavailable
+from .errors import ArmError, NotReady, TargetRefused, Unavailable
+from .safety import Safety
 
 log = logging.getLogger(__name__)
 RECOVER_TIMEOUT_S = 10.0
 COMPOUND = {"pick_place": ("sofia_arm.pick_place", "run_pick_place"),
-            "calibrate": ("sofia_arm.autocal", "run_autocal")}  # fmt: skip
+            "calibrate": ("sofia_arm.autocal", "run_autocal"),
+            "sort_colours": ("sofia_arm.sort", "run_sort")}  # fmt: skip
 
 
 def load_compound(command: str) -> Callable[..., ArmResult]:
@@ -63,6 +65,11 @@ class CommandMotion:
 
     def move_pose(self, T_base_flange: np.ndarray, speed: float) -> ArmResult:
         return self._guarded("move_pose", lambda: self.controller.move_pose(self.token, T_base_flange, speed))
+
+    @property
+    def safety(self) -> Safety:
+        """The service's rules, for compound commands to check their poses before the first motion."""
+        return self.controller.safety
 
     def T_base_flange(self) -> np.ndarray:
         from sofia_schemas.kinematics import panda_fk
@@ -101,13 +108,32 @@ class Commands:
         if cmd.command in COMPOUND:
             load_compound(cmd.command)
         c.ready()
+        s = c.link.latest
+        if s is None:
+            raise NotReady("no robot state received yet")
         if cmd.command == "move_joints":
-            c.safety.check_joint_target(np.asarray(cmd.q))
+            c.safety.check_joint_target(np.asarray(cmd.q), s.q)
+        elif cmd.command == "home":
+            c.safety.check_joint_target(np.array(c.config.home_q), s.q, "home target")
         elif cmd.command == "move_pose":
-            s = c.link.latest
-            if s is None:
-                raise NotReady("no robot state received yet")
             c.safety.check_pose_target(self.target_pose(cmd), s.q, np.array(c.config.home_q))
+        elif cmd.command == "pick_place" and cmd.target is not None:
+            from .pick_place import check_pick_place  # the same checks it runs before its first motion
+
+            check_pick_place(cmd, cmd.target, c.safety, s.q)
+        elif cmd.command == "sort_colours":
+            from .sort import check_sort
+
+            check_sort(cmd, c.safety, s.q)
+        elif cmd.command == "calibrate":
+            from .autocal_options import AutocalOptions
+
+            try:
+                opts = AutocalOptions.from_dict(cmd.calibrate, cmd.speed)
+            except (TypeError, ValueError) as e:
+                raise TargetRefused(f"calibrate options: {e}") from None
+            if opts.blob is not None:
+                c.safety.check_look_target(np.array(opts.blob), "calibrate blob")
 
     @staticmethod
     def target_pose(cmd: ArmCommand) -> np.ndarray:

@@ -31,6 +31,23 @@ class ArmConfig(BaseModel):
     workspace_min: tuple[float, float, float] = (0.15, -0.6, 0.05)
     workspace_max: tuple[float, float, float] = (0.85, 0.6, 0.9)
     joint_margin_rad: float = Field(0.05, ge=0.0, le=0.5)  # targets this close to a joint limit are refused
+    # the tool on the flange: "sofia" (the gripper's fingers, a box from the flange to the fingertips
+    # ``fingertip_offset_m`` along the flange z axis, ``finger_half_width_m`` either side along its x
+    # and y axes) or "flange" (a bare flange: its origin only)
+    tool: Literal["sofia", "flange"] = "sofia"
+    fingertip_offset_m: float = Field(0.20, ge=0.0, le=0.6)
+    finger_half_width_m: float = Field(0.055, ge=0.0, le=0.3)
+    # the table/board top, a horizontal plane (base frame): the board file's surface_z when given,
+    # else ``surface_z``; no point of the tool may come closer to it than ``surface_margin_m``
+    surface_z: float = Field(0.0, ge=-1.0, le=1.0)
+    board_file: Path | None = None
+    surface_margin_m: float = Field(0.005, ge=0.0, le=0.2)
+    gripper_max_opening_mm: float = Field(
+        100.0, gt=0.0
+    )  # picks the arm plans open the fingers at most this far
+    # flange -> camera transform for the survey when no calibrator answers (YAML/JSON with ``matrix``,
+    # as the detector's --transform file); the calibrator's latest result wins when there is one
+    transform_file: Path | None = None
     # collision thresholds (the robot stops with a reflex above them)
     torque_threshold_nm: float = Field(20.0, gt=0.0)
     force_threshold_n: float = Field(30.0, gt=0.0)

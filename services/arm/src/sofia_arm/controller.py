@@ -229,7 +229,8 @@ class Controller:
         """Move to joint positions q (7,) rad. Raises TargetRefused / NotReady before moving."""
         started = time.monotonic()
         robot = self.ready()
-        q_goal = self.safety.check_joint_target(q)
+        s = self.link.latest
+        q_goal = self.safety.check_joint_target(q, None if s is None else s.q, f"{command} target")
         f = self.factor(speed)
         ended = self._run(token, robot, franky.JointMotion(q_goal, relative_dynamics_factor=f))
         if ended is not None:

@@ -24,10 +24,21 @@ class OutsideWorkspace(TargetRefused):
         )
 
 
-class OutsideJointLimits(TargetRefused):
-    def __init__(self, joint: int, value: float, low: float, high: float, margin: float) -> None:
+class BelowSurface(TargetRefused):
+    def __init__(self, what: str, tool: str, p_base: object, lowest_allowed: float, surface: str,
+                 margin: float) -> None:  # fmt: skip
         super().__init__(
-            f"joint {joint} target {value:.4f} rad is outside the allowed range [{low:.4f}, {high:.4f}] rad "
+            f"{what}: the {tool} would reach {p_base} m (base frame), below the surface ({surface}) "
+            f"plus its margin of {margin:.3f} m: z must stay >= {lowest_allowed:.4f} m"
+        )
+
+
+class OutsideJointLimits(TargetRefused):
+    def __init__(
+        self, joint: int, value: float, low: float, high: float, margin: float, what: str = ""
+    ) -> None:
+        super().__init__(
+            f"{what + ': ' if what else ''}joint {joint} target {value:.4f} rad is outside the allowed range [{low:.4f}, {high:.4f}] rad "
             f"(joint limits minus a margin of {margin:.3f} rad)"
         )
 
@@ -53,3 +64,11 @@ class Unavailable(ArmError):  # noqa: N818
 
 class SimError(ArmError):
     """franky-sim could not be started."""
+
+
+class PhaseFailed(Exception):  # noqa: N818 - a compound command's control flow, never seen by users
+    """A step of a compound command ended without reaching its goal; the command reports it."""
+
+    def __init__(self, phase: str, reason: str, status: str = "failed") -> None:
+        super().__init__(f"{phase}: {reason}")
+        self.phase, self.reason, self.status = phase, reason, status

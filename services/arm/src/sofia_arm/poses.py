@@ -29,6 +29,10 @@ class Reach:
     joint_margin: float = 0.1
     box_min: tuple[float, float, float] = (0.15, -0.6, 0.05)
     box_max: tuple[float, float, float] = (0.8, 0.6, 0.9)
+    # the tool's outline (flange frame, m) and the lowest height (base frame, m) it may reach:
+    # the service's rule of the tool above the surface (:mod:`sofia_arm.tool`); none by default
+    tool_points_flange: tuple[tuple[float, float, float], ...] = ()
+    tool_lowest_z: float = -np.inf
 
     @property
     def q_lo(self) -> np.ndarray:
@@ -42,6 +46,16 @@ class Reach:
         """(n,) bool: flange positions (n, 3) (base frame) inside the box."""
         p = np.atleast_2d(p_base)
         return np.all((p >= np.array(self.box_min)) & (p <= np.array(self.box_max)), axis=-1)
+
+    def tool_clear(self, T_base_flange: np.ndarray) -> np.ndarray:
+        """(n,) bool: flange poses (n, 4, 4) or (4, 4) (base frame) whose tool stays at or above
+        ``tool_lowest_z``."""
+        T = np.asarray(T_base_flange, dtype=np.float64).reshape(-1, 4, 4)
+        if not self.tool_points_flange:
+            return np.ones(len(T), dtype=bool)
+        pts = np.asarray(self.tool_points_flange)
+        z = np.einsum("nj,kj->nk", T[:, 2, :3], pts) + T[:, 2, 3:4]  # (n, k) heights of the tool's points
+        return np.asarray(z.min(axis=1) >= self.tool_lowest_z)
 
 
 @dataclass
@@ -112,7 +126,8 @@ def solve_ik(
 
     Tries ``q_seed`` (e.g. the arm's current joints), the home pose, then random seeds; returns the
     first solution within 0.05 mm / 0.02 deg, else the best one with ``ok=False`` and the reason.
-    The flange position must lie inside the workspace box.
+    The flange position must lie inside the workspace box, the tool (when ``reach`` has one)
+    above its lowest height.
     """
     reach = reach or Reach()
     T_target = np.asarray(T_base_flange, dtype=np.float64)
@@ -120,6 +135,10 @@ def solve_ik(
         return IkResult(Q_HOME.copy(), np.inf, np.inf, False, 0,
                         f"flange position {np.round(T_target[:3, 3], 3).tolist()} m is outside the workspace box "
                         f"{list(reach.box_min)}..{list(reach.box_max)}")  # fmt: skip
+    if not reach.tool_clear(T_target)[0]:
+        return IkResult(Q_HOME.copy(), np.inf, np.inf, False, 0,
+                        f"the tool at flange position {np.round(T_target[:3, 3], 3).tolist()} m would come "
+                        f"below z = {reach.tool_lowest_z:.4f} m (the surface plus its margin)")  # fmt: skip
     rng = rng or np.random.default_rng(0)
     seeds = [np.clip(s, reach.q_lo, reach.q_hi) for s in ([] if q_seed is None else [np.asarray(q_seed)])]
     seeds.append(np.clip(Q_HOME, reach.q_lo, reach.q_hi))

@@ -19,7 +19,9 @@ import logging
 import queue
 import threading
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Literal
 
 import numpy as np
@@ -37,8 +39,9 @@ from .config import ArmConfig
 from .controller import Controller, Token
 from .errors import ArmError
 from .robot import RateMeter, RobotLink, Sample
-from .safety import pose_error
+from .safety import Safety, pose_error
 from .sim import SimProcess, start_sim
+from .world import WorldKeeper
 
 log = logging.getLogger(__name__)
 JOINT_NAMES = [f"panda_joint{i}" for i in range(1, 8)]
@@ -51,6 +54,7 @@ class ServiceConfig:
     zenoh: ZenohOptions
     robot_ip: str | None = None
     sim: bool = False
+    sim_world: Path | None = None  # the simulated world's file (objects carried by the fingers)
 
 
 def parse_command(query: zenoh.Query) -> ArmCommand:
@@ -65,6 +69,7 @@ class StatePublisher:
         self.joints_pub = session.declare_publisher(keys.arm_joint_states, encoding=ENCODING_CDR_JOINT_STATE)
         self.published = 0
         self.rate = RateMeter()
+        self.on_pose: Callable[[np.ndarray], None] | None = None  # each flange pose (4, 4), base frame
 
     def __call__(self, s: Sample) -> None:
         T = s.T_base_flange
@@ -74,6 +79,8 @@ class StatePublisher:
         self.joints_pub.put(encode_joint_state(s.stamp_ns, JOINT_NAMES, s.q, s.dq, s.tau))
         self.published += 1
         self.rate.tick()
+        if self.on_pose is not None:
+            self.on_pose(T)
 
 
 class GripperMonitor:
@@ -239,6 +246,13 @@ def main(config: ServiceConfig) -> int:
         publisher = StatePublisher(session, keys)
         gripper = GripperMonitor(config.arm.gripper_state_max_age_s)
         session.declare_subscriber(keys.gripper_state, gripper.on_sample)
+        if config.sim_world is not None:
+            world = WorldKeeper(config.sim_world, Safety(config.arm).tool.fingertip_offset_m)
+            publisher.on_pose = world.on_pose
+            session.declare_subscriber(keys.gripper_state, world.on_gripper_sample)
+            world.start()
+            cleanup.callback(world.close)
+            log.info("simulated world in %s", config.sim_world)
         link = RobotLink(host, config.arm, on_sample=publisher)
         controller = Controller(link, config.arm, gripper.error)
         service = ArmService(Commands(controller, session, keys), publisher)

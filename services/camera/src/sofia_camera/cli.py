@@ -43,11 +43,15 @@ def _add_sim_args(p: argparse.ArgumentParser) -> None:
     g.add_argument("--sim-seed", type=int, default=0, help="board scene and noise seed (default 0)")
     g.add_argument(
         "--sim-kind",
-        choices=("one", "two", "nonred", "empty"),
+        choices=("one", "two", "nonred", "empty", "sort"),
         default="one",
-        help="board scene: objects on the board (default one, on a red field)",
+        help="board scene: objects on the board (default one, on a red field; sort: a yellow, a green, a blue "
+        "and a purple object on the first two rows)",
     )
     g.add_argument("--sim-board", type=Path, metavar="FILE", help="board YAML/JSON (default: the package's)")
+    g.add_argument("--sim-world", type=Path, metavar="FILE",
+                   help="board scene: the world file shared with the arm and the gripper emulator, written "
+                        "here when missing (default: $SOFIA_SIM_WORLD); objects are rendered where it says")  # fmt: skip
     g.add_argument(
         "--sim-noise",
         choices=("d435", "stereo", "none"),
@@ -127,6 +131,8 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
 
 
 def sim_options(args: argparse.Namespace):  # type: ignore[no-untyped-def]
+    from sofia_schemas.sim_world import world_path
+
     from .sim_scene import DEFAULT_TARGET, SimOptions, parse_T_flange_cam
 
     return SimOptions(
@@ -134,7 +140,7 @@ def sim_options(args: argparse.Namespace):  # type: ignore[no-untyped-def]
         target_base=tuple(args.sim_target) if args.sim_target else DEFAULT_TARGET,
         blob_radius=args.sim_blob_radius, seed=args.sim_seed, kind=args.sim_kind, board_file=args.sim_board,
         noise=args.sim_noise != "none",
-        stereo=args.sim_noise == "stereo",
+        stereo=args.sim_noise == "stereo", world_file=args.sim_world or world_path(),
     )  # fmt: skip
 
 

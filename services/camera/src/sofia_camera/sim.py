@@ -54,7 +54,8 @@ class SimRenderer:
     def clean(self, T_base_flange: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Noise-free depth (Hd, Wd) metres (inf: no hit) and colour (Hc, Wc, 3) uint8; the last
         pose's images are reused while the pose does not change."""
-        key = np.round(T_base_flange, 9).tobytes()
+        self.world.refresh()  # the shared world's objects where they are now
+        key = np.round(T_base_flange, 9).tobytes() + self.world.version.to_bytes(8, "little")
         if self._cached is not None and self._cached[0] == key:
             return self._cached[1], self._cached[2]
         T_base_color = self.T_base_color(T_base_flange)

@@ -12,16 +12,20 @@ from typing import Any, Literal
 
 import numpy as np
 from sofia_replay.synth.calibration import TABLE_Z, CalibrationTarget
-from sofia_replay.synth.scene import DEFAULT_T_FLANGE_CAM, build, make_scene
+from sofia_replay.synth.scene import DEFAULT_T_FLANGE_CAM, ObjectTruth, Scene, build, make_scene
 from sofia_schemas import Board
 from sofia_schemas.files import FileContentError, load_json_or_yaml
+from sofia_schemas.sim_world import WorldFile, WorldObject, WorldState, write_world
 from sofia_schemas.transforms import as_transforms, make_transform
 
 from .errors import BadOption
 
 SceneName = Literal["calibration", "board"]
 SCENES: tuple[SceneName, ...] = ("calibration", "board")
-KINDS = ("one", "two", "nonred", "empty")
+KINDS = ("one", "two", "nonred", "empty", "sort")
+# the lab's sorting task: a yellow, a green and a blue object, and a distractor of another colour
+SORT_COLOURS = (("yellow", (230, 200, 40)), ("green", (40, 160, 60)), ("blue", (30, 80, 200)),
+                ("purple", (150, 60, 170)))  # fmt: skip
 DEFAULT_TARGET = (0.45, 0.25, TABLE_Z + 0.0005)
 
 
@@ -53,6 +57,48 @@ def parse_T_flange_cam(text: str | None) -> np.ndarray:
         ) from None
 
 
+def sort_objects(board: Board, T_base_board: np.ndarray, rng: np.random.Generator) -> list[ObjectTruth]:
+    """The sorting task's objects: one of each of ``SORT_COLOURS``, boxes and cylinders 4-6 cm wide
+    and 5-7 cm high, each on its own field of the board's first two rows (the last row stays free
+    for the places)."""
+    fields = [(r, c) for r in range(min(2, board.rows)) for c in range(board.cols)]
+    picked = rng.choice(len(fields), size=len(SORT_COLOURS), replace=False)
+    objects = []
+    for (_, colour), k in zip(SORT_COLOURS, picked, strict=True):
+        r, c = fields[int(k)]
+        shape = "box" if rng.random() < 0.5 else "cylinder"
+        ext = (
+            rng.uniform(0.04, 0.06, 3)
+            if shape == "box"
+            else np.r_[np.full(2, rng.uniform(0.04, 0.06)), rng.uniform(0.04, 0.06)]
+        )
+        xy = board.field_centers_board()[r, c] + rng.uniform(-0.02, 0.02, 2)
+        yaw = rng.uniform(-np.pi / 2, np.pi / 2)
+        c_, s_ = np.cos(yaw), np.sin(yaw)
+        T_board_obj = np.array(
+            [[c_, -s_, 0, xy[0]], [s_, c_, 0, xy[1]], [0, 0, 1, ext[2] / 2], [0, 0, 0, 1.0]]
+        )
+        T = T_base_board @ T_board_obj
+        objects.append(ObjectTruth(shape=shape, center=T[:3, 3].copy(), extents=ext, yaw=float(np.arctan2(T[1, 0], T[0, 0])),  # type: ignore[arg-type]
+                                   field=(r, c), allowed=board.is_allowed(r, c), T_base_obj=T, colour=colour))  # fmt: skip
+    return objects
+
+
+def world_of(scene: Scene) -> WorldState:
+    """The first state of the shared world: the scene's objects on its true board."""
+    objects = [WorldObject(id=i, shape=o.shape, extents=tuple(map(float, o.extents)), colour=o.colour,  # type: ignore[arg-type]
+                           T_base_obj=o.T_base_obj.tolist()) for i, o in enumerate(scene.objects)]  # fmt: skip
+    return WorldState(T_base_board=scene.T_base_board.tolist(), objects=objects)
+
+
+def object_of(obj: WorldObject) -> ObjectTruth:
+    """The ray caster's object of a world object where the world says it is."""
+    T = obj.pose()
+    return ObjectTruth(shape=obj.shape, center=T[:3, 3].copy(), extents=np.array(obj.extents),  # type: ignore[arg-type]
+                       yaw=float(np.arctan2(T[1, 0], T[0, 0])), field=(-1, -1), allowed=False, T_base_obj=T,
+                       colour=obj.colour)  # fmt: skip
+
+
 @dataclass
 class SimOptions:
     """The ``--sim-*`` options (see ``sofia camera serve --help``)."""
@@ -66,6 +112,7 @@ class SimOptions:
     board_file: Path | None = None
     noise: bool = True
     stereo: bool = False  # replay's active-stereo D435 model instead of the simple noise
+    world_file: Path | None = None  # the simulated world shared with the arm and the gripper (board scene)
 
     def __post_init__(self) -> None:
         if self.scene not in SCENES:
@@ -91,8 +138,26 @@ class SimWorld:
         else:
             board = Board.from_file(options.board_file) if options.board_file else Board.default()
             rng = np.random.default_rng(options.seed)
-            self.scene = make_scene(board, options.kind, rng)  # type: ignore[arg-type]
+            kind = "empty" if options.kind == "sort" else options.kind
+            self.scene = make_scene(board, kind, rng)  # type: ignore[arg-type]
+            if options.kind == "sort":
+                self.scene.objects = sort_objects(board, self.scene.T_base_board, rng)
             self.raycasting, self.colour_of = build(self.scene)
+        self.world = (
+            None if options.world_file is None or self.scene is None else WorldFile(options.world_file)
+        )
+        if self.world is not None and self.scene is not None and not self.world.path.exists():
+            write_world(self.world.path, world_of(self.scene))
+        self.version = 0
+
+    def refresh(self) -> bool:
+        """Rebuild the scene when the world file changed (objects carried or set down); True then."""
+        if self.world is None or self.scene is None or not self.world.poll() or self.world.state is None:
+            return False
+        self.scene.objects = [object_of(o) for o in self.world.state.objects]
+        self.raycasting, self.colour_of = build(self.scene)
+        self.version += 1
+        return True
 
     def truth(self) -> dict[str, Any]:
         """JSON-able ground truth (base frame, metres)."""

@@ -20,6 +20,8 @@ import time
 import tty
 from pathlib import Path
 
+from sofia_schemas.sim_world import WorldFile, world_path
+
 from . import packets as pk
 from .config import GripperConfig
 from .control_table import Protocol
@@ -57,6 +59,10 @@ class Emulator:
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
         self.set_object(object_width_mm)
+        # the simulated cell's shared world (SOFIA_SIM_WORLD): the fingers stop at the width of the
+        # object between them, and close on nothing when there is none
+        path = world_path()
+        self.world = None if path is None else WorldFile(path)
 
     # --- lifecycle --------------------------------------------------------
     @property
@@ -182,6 +188,8 @@ class Emulator:
     def serve(self) -> None:
         """Answer packets until :meth:`stop` (runs on the caller's thread)."""
         while not self._stop.is_set():
+            if self.world is not None and self.world.poll() and self.world.state is not None:
+                self.set_object(self.world.state.between_width_mm)
             fds = self._fds
             if fds is None:
                 time.sleep(0.02)

@@ -152,10 +152,6 @@ HELPERS = {
     "pixels._counted_median",
     "pixels.grow_jit",
     "plane._in_frame",
-    "sums._block",
-    "sums._interleaved",
-    "sums._pairwise",
-    "sums._sequential",
     "kernels._turn",
     "kernels.solve_spd",
 }

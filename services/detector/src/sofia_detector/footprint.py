@@ -22,7 +22,6 @@ from .params import DetectorParams
 from .pixels import median
 from .rim import round_footprint, round_side
 from .segment import ObjectPoints
-from .sums import means64
 
 FIT_POINTS = 3000  # points used by the fits (every k-th of a large object)
 FLAT_K, FLAT_MIN = 3.0, 0.001  # a top whose heights spread more (noise units + metres) is no flat face
@@ -146,7 +145,7 @@ def estimate_object(
     v = ((R[0, 1] * b[0] + R[1, 1] * b[1]) - mid[1]) / half[1]
     inner = (h > h_hi - 2.3 * noise - depth) & (u * u + v * v < 0.49)
     top = b[:, inner]
-    mean_top = means64(top[:2], np.getbufsize()) if top.shape[1] else R @ mid
+    mean_top = top[:2].mean(axis=1, dtype=np.float64) if top.shape[1] else R @ mid
     fit = fit_top(top[0] - mean_top[0], top[1] - mean_top[1], top[2])
     curved, tip = False, None
     yaw, whole = rect.yaw, rect
@@ -189,7 +188,7 @@ def estimate_object(
         if side is not None:
             whole_xy, whole_size = side[0], (2 * side[1], 2 * side[1])
     lw, yaw = length_first(size, yaw)
-    centroid = means64(b_all, np.getbufsize())
+    centroid = b_all.mean(axis=1, dtype=np.float64)
     return ObjectEstimate(
         center_xy=np.asarray(center_xy, dtype=np.float64), height=height,
         size=lw, yaw=yaw, centroid=centroid, curved=curved, n_points=n,

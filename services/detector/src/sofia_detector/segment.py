@@ -17,7 +17,6 @@ from .outline import boundary_points, hull
 from .params import DetectorParams
 from .pixels import masked_points, where
 from .plane import points_in_frame
-from .sums import means32
 
 MIN_PART = 10  # pixels of the smallest part standing on an object that is joined to it
 PART_MARGIN = 0.005  # metres
@@ -112,7 +111,7 @@ def organized_objects(
         sr, sc = where(comp)
         if sr.size < params.min_seed_pixels:
             continue
-        xy_plane = means32(m_coarse[:2][:, sl[0], sl[1]][:, comp])
+        xy_plane = m_coarse[:2][:, sl[0], sl[1]][:, comp].mean(axis=1)
         if not inside(T_board_plane[:2, :2] @ xy_plane + T_board_plane[:2, 3], half):
             continue  # clutter beside the board
         rows, cols = (sr + sl[0].start) * s, (sc + sl[1].start) * s  # full-resolution seed pixels

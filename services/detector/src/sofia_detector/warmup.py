@@ -22,7 +22,7 @@ from sofia_schemas.messages import Detection
 from sofia_schemas.ros2.encoding import decode_flange
 from sofia_schemas.rosmsg import encode_flange_pose
 
-from . import board_fit, board_grid, caps, colour, footprint, holes, rim, sums, visibility
+from . import board_fit, board_grid, caps, colour, footprint, holes, rim, visibility
 from .caps import fit_top
 from .components import fill_holes, label8, label_boxes, largest_label, max_filter
 from .depth_clean import bridge, consistent_at, median_chroma, of_colour, pixel_spacing
@@ -84,10 +84,6 @@ def compile_kernels() -> None:
     change_frame(xyz, np.eye(4))
     consistent_at(xyz, two, 0.01)
     masked_points(xyz, two)
-    xy = xyz.reshape(3, -1)[:2]
-    for rows in (xy, np.asfortranarray(xy), xy[:, ::2]):  # points, gathered pixels, a sample
-        sums.means32(rows)
-        sums.means64(rows, np.getbufsize())
     pixel_spacing(xyz, 4)
     f32 = np.float32
     board_grid.plane_candidates(xyz.reshape(3, -1), f32(1.0), f32(1.0), f32(0.01), 10)

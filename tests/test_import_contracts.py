@@ -15,7 +15,7 @@ def lint_imports(*args: str) -> subprocess.CompletedProcess[str]:
 
 
 def test_contracts_are_kept() -> None:
-    r = lint_imports()
+    r = lint_imports("--no-cache")
     assert r.returncode == 0, r.stdout + r.stderr
     for name in ("Layers point down", "No import cycles"):
         assert any(name in line and "KEPT" in line for line in r.stdout.splitlines()), r.stdout
@@ -30,7 +30,7 @@ def test_an_upward_import_breaks_the_layers(tmp_path: Path) -> None:
         "[importlinter:contract:upside-down]\nname = upside down\ntype = layers\n"
         "layers =\n    sofia_schemas\n    sofia_detector\n"
     )
-    r = lint_imports("--config", str(config))
+    r = lint_imports("--no-cache", "--config", str(config))
     assert r.returncode == 1, r.stdout + r.stderr
     assert "upside down BROKEN" in r.stdout
     assert "sofia_detector" in r.stdout and "-> sofia_schemas" in r.stdout

@@ -24,7 +24,6 @@ from sofia_schemas import Board
 
 from .depth_clean import chroma, colour_distance
 from .kernels import jit
-from .pixels import median
 
 DEFAULT_PALETTE: tuple[tuple[str, tuple[int, int, int]], ...] = (
     ("red", (200, 30, 35)),
@@ -60,7 +59,7 @@ def board_white(
     white = _white_pixels(m_plane, rgb_coarse, A, size, centres, allowed, np.float32(band), WHITE_STEP)
     if white.shape[0] < MIN_WHITE_PIXELS:
         return None
-    return median(white)
+    return np.median(white, axis=0)  # type: ignore[no-any-return]
 
 
 @jit

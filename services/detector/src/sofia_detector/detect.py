@@ -17,7 +17,6 @@ from .depth_clean import pixel_spacing
 from .errors import BadCloud
 from .footprint import ObjectEstimate, estimate_object, half_turn, length_first
 from .params import DetectorParams
-from .pixels import median, median_u8_at
 from .segment import Levels, ObjectPoints, organized_objects
 from .silhouette import silhouette
 from .unorganized import unorganized_objects
@@ -127,18 +126,20 @@ def _colour(
     sel = np.flatnonzero(upper) if np.count_nonzero(upper) >= 3 else np.arange(obj.b.shape[1])
     sel = sel[:: max(1, sel.size // 500)]
     if obj.point_rgb is not None:  # an unorganized cloud: the upper points' colours as seen
-        return name_colour(median(obj.point_rgb[sel]), white, params.palette)
+        return name_colour(np.median(obj.point_rgb[sel], axis=0), white, params.palette)
     if obj.rgb is None or obj.rows is None or obj.cols is None:
         return None, None
     rows, cols = obj.rows[sel], obj.cols[sel]
-    named = name_colour(median_u8_at(obj.rgb, rows, cols), white, params.palette)
+    named = name_colour(np.median(obj.rgb[rows, cols], axis=0), white, params.palette)
     if obj.window is None or not shaded_like_another(named[0], params.palette):
         return named
     lit = lit_share(obj.window, rows, cols)
     seen = np.isfinite(lit)  # each face's shading undone where its normal is measured
     if np.count_nonzero(seen) < 3:
         return named
-    return name_colour(median(obj.rgb[rows[seen], cols[seen]] / lit[seen, None]), white, params.palette)
+    return name_colour(
+        np.median(obj.rgb[rows[seen], cols[seen]] / lit[seen, None], axis=0), white, params.palette
+    )
 
 
 def _from_silhouettes(

@@ -14,12 +14,10 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .caps import fit_cone, fit_cone_apex, fit_top
-from .components import label8_jit, label_sizes
+from .components import label_sizes
 from .holes import unseen_top
-from .kernels import jit
 from .outline import min_area_rect
 from .params import DetectorParams
-from .pixels import median
 from .rim import round_footprint, round_side
 from .segment import ObjectPoints
 
@@ -74,7 +72,7 @@ def length_first(size: np.ndarray, yaw: float) -> tuple[tuple[float, float], flo
 
 def _spread(h: np.ndarray) -> float:
     """Robust standard deviation (1.4826 median absolute deviation) of (n,) heights, metres."""
-    return float(1.4826 * median(np.abs(h - median(h))))
+    return float(1.4826 * np.median(np.abs(h - np.median(h))))
 
 
 def _solid(obj: ObjectPoints, subset: np.ndarray) -> np.ndarray:
@@ -83,27 +81,13 @@ def _solid(obj: ObjectPoints, subset: np.ndarray) -> np.ndarray:
     slipped through at the same height, not part of a face."""
     if obj.rows is None or obj.cols is None or np.count_nonzero(subset) < 3:
         return subset
-    return _solid_jit(obj.rows, obj.cols, subset, obj.shape[0], obj.shape[1])  # type: ignore[no-any-return]
-
-
-@jit
-def _solid_jit(rows: np.ndarray, cols: np.ndarray, subset: np.ndarray, h: int, w: int) -> np.ndarray:
-    """:func:`_solid` of the pixels (rows, cols) (n,) of an (h, w) grid."""
-    grid = np.zeros((h, w), dtype=np.bool_)
-    for i in range(rows.size):
-        if subset[i]:
-            grid[rows[i], cols[i]] = True
-    labels, n = label8_jit(grid)
+    grid = np.zeros(obj.shape, dtype=bool)
+    grid[obj.rows[subset], obj.cols[subset]] = True
+    labels, n, sizes = label_sizes(grid)
     if n < 2:
-        return subset.copy()
-    sizes = label_sizes(labels, n)
-    sizes[0] = 0
-    largest = sizes.max()
-    least = min(max(10.0, 0.1 * largest), largest)
-    out = np.empty(rows.size, dtype=np.bool_)
-    for i in range(rows.size):
-        out[i] = subset[i] and sizes[labels[rows[i], cols[i]]] >= least
-    return out
+        return subset
+    largest = sizes[1:].max()
+    return subset & (sizes[labels[obj.rows, obj.cols]] >= min(max(10.0, 0.1 * largest), largest))  # type: ignore[no-any-return]
 
 
 def estimate_object(
@@ -169,7 +153,7 @@ def estimate_object(
                 curved, height = True, tip
                 center_xy, size = apex, 2 * np.maximum(apex_uv - rect.lo, rect.hi - apex_uv)
     if not curved:
-        height = float(median(top[2])) if top.shape[1] else h_hi
+        height = float(np.median(top[2])) if top.shape[1] else h_hi
         face = _solid(obj, b_all[2] > height - max(3 * noise, 0.004))
         if np.count_nonzero(face) >= 3:
             unseen = unseen_top(obj, face, colour_tol) if colour_tol > 0 else np.zeros((0, 2))

@@ -10,8 +10,9 @@ from collections.abc import Iterator
 from dataclasses import dataclass
 
 import numpy as np
+from scipy import ndimage
 
-from .components import label8, label_boxes
+from .components import label8
 from .depth_clean import bridge, consistent_at
 from .outline import boundary_points, hull
 from .params import DetectorParams
@@ -103,10 +104,9 @@ def organized_objects(
     labels, n = bridge(seeds, ~np.isfinite(m_coarse[2]), rgb_coarse, levels.colour_tol)
     claimed: list[tuple[int, int, np.ndarray]] = []  # (row, col, mask) of the objects found so far
     pad = 2
-    for i, (b_r0, b_r1, b_c0, b_c1) in enumerate(label_boxes(labels, n).tolist(), start=1):
-        if b_r1 == 0:
+    for i, sl in enumerate(ndimage.find_objects(labels, max_label=n), start=1):
+        if sl is None:
             continue
-        sl = (slice(b_r0, b_r1), slice(b_c0, b_c1))
         comp = (labels[sl] == i) & seeds[sl]
         sr, sc = where(comp)
         if sr.size < params.min_seed_pixels:

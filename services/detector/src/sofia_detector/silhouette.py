@@ -17,11 +17,11 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import ndimage
 
-from .components import fill_holes, label8
+from .components import fill_holes, grow, label8
 from .depth_clean import EIGHT, median_chroma, of_colour
 from .holes import dlt
 from .outline import Rect, min_area_rect
-from .pixels import grow, median, where
+from .pixels import where
 from .plane import points_in_frame
 from .segment import ObjectPoints
 
@@ -57,7 +57,7 @@ def fit_camera(pix: np.ndarray, xyz: np.ndarray) -> np.ndarray | None:
         return None
     q = P @ np.hstack([xyz, np.ones((xyz.shape[0], 1))]).T
     err = np.linalg.norm(q[:2] / q[2] - pix.T, axis=0)
-    return P if float(median(err)) < MAX_REPROJECTION else None
+    return P if float(np.median(err)) < MAX_REPROJECTION else None
 
 
 def on_plane(P: np.ndarray, cols: np.ndarray, rows: np.ndarray, z: float) -> np.ndarray:

@@ -5,10 +5,10 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from sofia_detector.board_fit import _grid_steps, _reach_steps
-from sofia_detector.board_grid import board_outline, plane_candidates, reach_hits
-from sofia_detector.depth_clean import pixel_spacing
-from sofia_detector.outline import _side_counts
+from sofia_detector.board.fit import _grid_steps, _reach_steps
+from sofia_detector.board.grid import board_outline, plane_candidates, reach_hits
+from sofia_detector.board.outline import _side_counts
+from sofia_detector.depth.clean import pixel_spacing
 
 
 def test_board_outline_of_a_rectangle_with_the_table_on_its_left() -> None:

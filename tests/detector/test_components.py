@@ -7,19 +7,20 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from scipy import ndimage
-from sofia_detector.components import (
+from sofia_detector.board.plane import fit_plane
+from sofia_detector.depth.clean import chroma, colour_distance, of_colour
+from sofia_detector.geometry.grid import (
+    boundary_points,
     fill_holes,
+    grid_boundary,
     grow,
     label8,
     label_sizes,
     largest_component,
     max_filter,
     shrink,
+    where,
 )
-from sofia_detector.depth_clean import chroma, colour_distance, of_colour
-from sofia_detector.outline import boundary_points, grid_boundary
-from sofia_detector.pixels import where
-from sofia_detector.plane import fit_plane
 
 EIGHT = np.ones((3, 3), dtype=bool)
 

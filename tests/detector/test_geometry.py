@@ -7,7 +7,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from sofia_detector import detect
-from sofia_detector.outline import min_area_rect
+from sofia_detector.geometry.rect import min_area_rect
 from sofia_schemas import Board
 
 BOARD = Board.default()

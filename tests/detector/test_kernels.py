@@ -10,7 +10,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.spatial import ConvexHull
-from sofia_detector.outline import hull, min_area_rect
+from sofia_detector.geometry.rect import hull, min_area_rect
 
 
 def _clouds(seed: int, n: int) -> list[np.ndarray]:
@@ -110,11 +110,11 @@ from sofia_replay.synth import write_scene_set
 from sofia_schemas import Board, pointcloud
 
 kernels = {}  # every numba-compiled function of the detector package, by module.name
-for info in pkgutil.iter_modules(sofia_detector.__path__):
-    mod = importlib.import_module(f"sofia_detector.{info.name}")
+for info in pkgutil.walk_packages(sofia_detector.__path__, "sofia_detector."):
+    mod = importlib.import_module(info.name)
     for name, f in vars(mod).items():
         if isinstance(f, CPUDispatcher) and f.py_func.__module__ == mod.__name__:
-            kernels[f"{info.name}.{name}"] = f
+            kernels[f"{info.name.removeprefix('sofia_detector.')}.{name}"] = f
 compile_kernels()
 before = {name: len(f.signatures) for name, f in kernels.items()}
 board = Board.default()
@@ -139,10 +139,10 @@ after = {name: len(f.signatures) for name, f in kernels.items()}
 print(json.dumps({"before": before, "after": after, "statuses": statuses}))
 """
 HELPERS = {
-    "depth_clean._chroma_px",
-    "depth_clean.same_colour",
-    "plane._in_frame",
-    "kernels.solve_spd",
+    "depth.clean._chroma_px",
+    "depth.clean.same_colour",
+    "geometry.points._in_frame",
+    "geometry.compiled.solve_spd",
 }
 
 
@@ -172,7 +172,7 @@ def test_compile_kernels_compiles_what_detection_calls(tmp_path: Path) -> None:
 
 
 def test_cone_gauss_newton_finds_the_apex_from_one_flank() -> None:
-    from sofia_detector.kernels import cone_gauss_newton
+    from sofia_detector.objects.caps import cone_gauss_newton
 
     rng = np.random.default_rng(3)
     x, y = rng.uniform(0.0, 0.03, 400), rng.uniform(-0.03, 0.03, 400)  # the flank at x >= 0 only

@@ -7,11 +7,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from scipy import ndimage
-from sofia_detector import colour, rim
-from sofia_detector.caps import fit_top
-from sofia_detector.components import grow
-from sofia_detector.plane import change_frame, coords, points_in_frame
-from sofia_detector.rim import fit_circle
+from sofia_detector.geometry.grid import grow
+from sofia_detector.geometry.points import change_frame, coords, points_in_frame
+from sofia_detector.objects import colour, rim
+from sofia_detector.objects.caps import fit_top
+from sofia_detector.objects.rim import fit_circle
 from sofia_schemas import Board
 
 

@@ -11,7 +11,7 @@ import numpy as np
 from sofia_schemas import Board
 from sofia_schemas.messages import Detection
 
-from .plane import coords
+from .geometry.points import coords
 
 CELL_M = 0.003  # side of the height map's cells
 ALLOWED, NOT_ALLOWED = "#2ca02c", "#ff7f0e"  # footprint colours

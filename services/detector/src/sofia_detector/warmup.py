@@ -22,14 +22,15 @@ from sofia_schemas.messages import Detection
 from sofia_schemas.ros2.encoding import decode_flange
 from sofia_schemas.rosmsg import encode_flange_pose
 
-from . import caps, colour, rim
-from .caps import fit_top
-from .depth_clean import bridge, consistent_at, median_chroma, of_colour, pixel_spacing
-from .kernels import warm_kernels
-from .outline import boundary_points, fit_outline, grid_boundary
+from .board.outline import fit_outline
+from .board.plane import fit_plane
+from .depth.clean import bridge, consistent_at, median_chroma, of_colour, pixel_spacing
+from .geometry.grid import boundary_points, grid_boundary
+from .geometry.points import change_frame, points_in_frame
+from .objects import caps, colour, rim
+from .objects.caps import fit_top, warm_kernels
+from .objects.rim import fit_circle
 from .pick import PickParams, first_pick
-from .plane import change_frame, fit_plane, points_in_frame
-from .rim import fit_circle
 
 log = logging.getLogger(__name__)
 

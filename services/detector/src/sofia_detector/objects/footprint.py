@@ -13,13 +13,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..geometry.grid import label_sizes
+from ..geometry.rect import min_area_rect
+from ..geometry.samples import median
+from ..params import DetectorParams
+from ..segment.points import ObjectPoints
 from .caps import fit_cone, fit_cone_apex, fit_top
-from .components import label_sizes
 from .holes import unseen_top
-from .outline import min_area_rect
-from .params import DetectorParams
 from .rim import round_footprint, round_side
-from .segment import ObjectPoints
 
 FIT_POINTS = 3000  # points used by the fits (every k-th of a large object)
 FLAT_K, FLAT_MIN = 3.0, 0.001  # a top whose heights spread more (noise units + metres) is no flat face
@@ -72,7 +73,7 @@ def length_first(size: np.ndarray, yaw: float) -> tuple[tuple[float, float], flo
 
 def _spread(h: np.ndarray) -> float:
     """Robust standard deviation (1.4826 median absolute deviation) of (n,) heights, metres."""
-    return float(1.4826 * np.median(np.abs(h - np.median(h))))
+    return float(1.4826 * median(np.abs(h - median(h))))
 
 
 def _solid(obj: ObjectPoints, subset: np.ndarray) -> np.ndarray:
@@ -153,7 +154,7 @@ def estimate_object(
                 curved, height = True, tip
                 center_xy, size = apex, 2 * np.maximum(apex_uv - rect.lo, rect.hi - apex_uv)
     if not curved:
-        height = float(np.median(top[2])) if top.shape[1] else h_hi
+        height = float(median(top[2])) if top.shape[1] else h_hi
         face = _solid(obj, b_all[2] > height - max(3 * noise, 0.004))
         if np.count_nonzero(face) >= 3:
             unseen = unseen_top(obj, face, colour_tol) if colour_tol > 0 else np.zeros((0, 2))

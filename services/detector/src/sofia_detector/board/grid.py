@@ -5,8 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .components import largest_component
-from .outline import grid_boundary
+from ..geometry.grid import grid_boundary, largest_component
 
 
 def plane_candidates(q: np.ndarray, lim_x: float, lim_y: float, band: float, max_points: int) -> np.ndarray:

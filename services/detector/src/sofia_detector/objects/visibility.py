@@ -12,9 +12,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .components import grow, shrink
-from .depth_clean import median_chroma, of_colour
-from .segment import ObjectPoints
+from ..depth.clean import median_chroma, of_colour
+from ..geometry.grid import grow, shrink
+from ..segment.points import ObjectPoints
 
 OCCLUDER_ABOVE = 0.015  # a neighbour this much above the object's top is in front of it, metres
 TRUNCATED = 0.04  # share of the silhouette out of view above which an object is truncated

@@ -17,13 +17,13 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import ndimage
 
-from .components import fill_holes, grow, label8
-from .depth_clean import EIGHT, median_chroma, of_colour
+from ..depth.clean import EIGHT, median_chroma, of_colour
+from ..geometry.grid import fill_holes, grow, label8, where
+from ..geometry.points import points_in_frame
+from ..geometry.rect import Rect, min_area_rect
+from ..geometry.samples import median
+from ..segment.points import ObjectPoints
 from .holes import dlt
-from .outline import Rect, min_area_rect
-from .pixels import where
-from .plane import points_in_frame
-from .segment import ObjectPoints
 
 RAISED = 0.005  # metres: a pixel with depth this close to the board is the board
 MIN_MISSING = 0.5  # share of the silhouette without depth below which the slivers are the object
@@ -57,7 +57,7 @@ def fit_camera(pix: np.ndarray, xyz: np.ndarray) -> np.ndarray | None:
         return None
     q = P @ np.hstack([xyz, np.ones((xyz.shape[0], 1))]).T
     err = np.linalg.norm(q[:2] / q[2] - pix.T, axis=0)
-    return P if float(np.median(err)) < MAX_REPROJECTION else None
+    return P if float(median(err)) < MAX_REPROJECTION else None
 
 
 def on_plane(P: np.ndarray, cols: np.ndarray, rows: np.ndarray, z: float) -> np.ndarray:

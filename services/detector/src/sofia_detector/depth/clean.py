@@ -13,8 +13,9 @@ import math
 
 import numpy as np
 
-from .components import grow, label8
-from .kernels import jit
+from ..geometry.compiled import jit
+from ..geometry.grid import grow, label8
+from ..geometry.samples import median
 
 EIGHT = np.ones((3, 3), dtype=bool)
 
@@ -73,7 +74,7 @@ def pixel_spacing(m: np.ndarray, stride: int) -> float:
     m: (3, h, w) float32 coordinates of the coarse grid (every ``stride``-th pixel), metres.
     """
     d = _row_steps(np.ascontiguousarray(m, dtype=np.float32), 8)
-    return float(np.median(d)) / stride if d.size else 0.0012
+    return float(median(d)) / stride if d.size else 0.0012
 
 
 def chroma(rgb: np.ndarray) -> np.ndarray:
@@ -92,7 +93,7 @@ F32_3, F32_8 = np.float32(3.0), np.float32(8.0)
 def median_chroma(rgb: np.ndarray, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
     """(4,) :func:`chroma` of the median colour of the pixels (rows, cols) (n,) of ``rgb`` (h, w, 3)
     uint8: an object's own colour."""
-    return chroma(np.median(rgb[rows, cols], axis=0))
+    return chroma(median(rgb[rows, cols]))
 
 
 @jit

@@ -17,10 +17,11 @@ import math
 
 import numpy as np
 
-from .components import fill_holes
-from .kernels import jit, solve_spd
-from .outline import Rect
-from .segment import ObjectPoints
+from ..geometry.compiled import jit, solve_spd
+from ..geometry.grid import fill_holes
+from ..geometry.rect import Rect
+from ..geometry.samples import median
+from ..segment.points import ObjectPoints
 
 MIN_RIM = 12  # fewest rim pixels for a circle
 MAX_GAP = np.deg2rad(290.0)  # widest angle around the centre without rim pixels
@@ -62,7 +63,7 @@ def rim_xy(obj: ObjectPoints, face: np.ndarray, top: float, drop: float) -> tupl
         step = obj.window[:2, sr, sc] - obj.window[:2, fr[::k], fc[::k]]
         d = np.hypot(step[0], step[1])
     d = d[np.isfinite(d) & (d > 0)]
-    spacing = float(np.median(d)) if d.size else 0.002
+    spacing = float(median(d)) if d.size else 0.002
     return xy[np.isfinite(xy).all(axis=1)], spacing
 
 
@@ -155,7 +156,7 @@ def round_top(
         return None
     center, r, _ = fit_circle(xy)
     res = np.abs(np.hypot(xy[:, 0] - center[0], xy[:, 1] - center[1]) - r)
-    keep = res <= max(4.5 * float(np.median(res)), 0.5 * spacing)
+    keep = res <= max(4.5 * float(median(res)), 0.5 * spacing)
     if np.count_nonzero(keep) < max(MIN_RIM, 0.8 * len(xy)):
         return None
     xy = xy[keep]

@@ -17,10 +17,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from .components import grow, label8, max_filter
-from .depth_clean import median_chroma, of_colour
-from .pixels import where
-from .segment import ObjectPoints
+from ..depth.clean import median_chroma, of_colour
+from ..geometry.grid import grow, label8, max_filter, where
+from ..geometry.samples import median
+from ..segment.points import ObjectPoints
 
 MIN_SHARE = 0.03  # fewer missing pixels of the top's colour than this share of the top: nothing to do
 BOARD_LIKE = 0.05  # share of the board around the object of the top's colour above which nothing is done
@@ -147,7 +147,7 @@ def unseen_top(obj: ObjectPoints, face: np.ndarray, tol: float) -> np.ndarray:
     if n_board and n_board_same / n_board > BOARD_LIKE:
         return none  # the object stands on its own colour
     face_h = obj.b[2, face]
-    lo, mid = float(face_h.min()), float(np.median(face_h))
+    lo, mid = float(face_h.min()), float(median(face_h))
     bordered = bordered_patches(grid, same, h, RAISED, lo, 2 * mid - lo, BORDER_PX)
     if np.count_nonzero(bordered) < MIN_SHARE * fr.size:
         return none

@@ -1,2 +1,2 @@
 """Stage 4, one object from its points: footprint, height, centre, visibility and colour
-(:func:`estimate_object`, :func:`in_view`, :func:`object_colour`)."""
+(:mod:`.footprint`, :mod:`.visibility`, :mod:`.colour`)."""

@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from sofia_detector import detect
-from sofia_detector.outline import fit_outline
+from sofia_detector.board.outline import fit_outline
 from sofia_replay.synth.realism import bench_frame
 from sofia_replay.synth.scene import BOARD_MARGIN
 from sofia_schemas import Board

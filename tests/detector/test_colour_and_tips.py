@@ -10,10 +10,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from sofia_detector import detect
-from sofia_detector.colour import NORMAL_STEP, lit_share
 from sofia_detector.detect import DEFAULT_PARAMS
-from sofia_detector.footprint import estimate_object
-from sofia_detector.segment import ObjectPoints
+from sofia_detector.objects.colour import NORMAL_STEP, lit_share
+from sofia_detector.objects.footprint import estimate_object
+from sofia_detector.segment.points import ObjectPoints
 from sofia_schemas import Board
 
 BOARD = Board.default()
@@ -105,7 +105,7 @@ def _surface(height_of, half_seen: bool, seed: int = 0) -> np.ndarray:  # type: 
 
 @pytest.mark.parametrize("half_seen", [False, True])
 def test_a_cone_is_placed_from_its_flanks_when_its_base_is_half_unseen(half_seen: bool) -> None:
-    from sofia_detector.caps import fit_cone_apex
+    from sofia_detector.objects.caps import fit_cone_apex
 
     b = _surface(lambda r: np.where(r < 0.03, 0.07 * (1 - r / 0.03), 0.0), half_seen)
     cone = fit_cone_apex(b, 0.001)
@@ -125,6 +125,6 @@ def test_a_cone_is_placed_from_its_flanks_when_its_base_is_half_unseen(half_seen
     ids=["ball", "flat", "bottle"],
 )
 def test_caps_tops_and_shoulders_are_no_cones(height_of) -> None:  # type: ignore[no-untyped-def]
-    from sofia_detector.caps import fit_cone_apex
+    from sofia_detector.objects.caps import fit_cone_apex
 
     assert fit_cone_apex(_surface(height_of, True), 0.001) is None

@@ -1,16 +1,26 @@
-"""The compiled pixel-grid and colour kernels give exactly what the numpy / scipy forms they replace
-give: the same labels in the same numbering, the same filters, the same colour decisions."""
+"""The pixel-grid helpers (OpenCV underneath) keep SciPy's conventions: 8-connected components,
+squares that ignore the pixels outside the image; the compiled colour test decides as the chroma
+distance; the grid boundary and the plane fit."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 from scipy import ndimage
-from sofia_detector.components import fill_holes, label8, max_filter
-from sofia_detector.depth_clean import chroma, colour_distance, of_colour
-from sofia_detector.outline import boundary_points, grid_boundary
-from sofia_detector.pixels import median
-from sofia_detector.plane import fit_plane
+from sofia_detector.board.plane import fit_plane
+from sofia_detector.depth.clean import chroma, colour_distance, of_colour
+from sofia_detector.geometry.grid import (
+    boundary_points,
+    fill_holes,
+    grid_boundary,
+    grow,
+    label8,
+    label_sizes,
+    largest_component,
+    max_filter,
+    shrink,
+    where,
+)
 
 EIGHT = np.ones((3, 3), dtype=bool)
 
@@ -26,11 +36,25 @@ def _masks(seed: int, n: int) -> list[np.ndarray]:
     return out
 
 
-def test_label8_numbers_components_as_scipy_does() -> None:
-    for mask in _masks(0, 600):
+def _same_partition(a: np.ndarray, b: np.ndarray) -> bool:
+    """Whether two labellings (h, w) int split the pixels alike (0 off every label in both)."""
+    pairs = np.unique(np.stack([a.ravel(), b.ravel()]), axis=1)
+    return bool(np.array_equal(a == 0, b == 0) and len(set(pairs[0])) == len(set(pairs[1])) == pairs.shape[1])
+
+
+def test_label8_splits_the_pixels_as_scipy_does() -> None:
+    for mask in _masks(0, 300):
         expected, n = ndimage.label(mask, structure=EIGHT)
         got, m = label8(mask)
-        assert m == n and got.dtype == expected.dtype and np.array_equal(got, expected)
+        assert m == n and _same_partition(got, expected)
+        labels, k, sizes = label_sizes(mask)
+        assert k == n and np.array_equal(labels, got)
+        assert sizes[0] == np.count_nonzero(~mask)
+        assert sorted(sizes[1:]) == sorted(np.bincount(expected.ravel(), minlength=n + 1)[1:])
+        if n:
+            assert np.array_equal(largest_component(mask), got == 1 + np.argmax(sizes[1:]))
+        else:
+            assert not largest_component(mask).any()
 
 
 def test_label8_joins_a_u_shape_met_from_both_arms() -> None:
@@ -40,12 +64,22 @@ def test_label8_joins_a_u_shape_met_from_both_arms() -> None:
     assert n == 1 and set(np.unique(labels[u])) == {1}
 
 
-def test_max_filter_and_fill_holes_are_scipys() -> None:
+def test_filters_and_fill_holes_are_scipys() -> None:
     for mask in _masks(1, 300):
         labels, _ = ndimage.label(mask, structure=EIGHT)
         for size in (3, 7):
             assert np.array_equal(max_filter(labels, size), ndimage.maximum_filter(labels, size=size))
+            as_bytes = mask.view(np.uint8)  # the image border neither grows nor erodes a mask
+            assert np.array_equal(grow(mask, size), ndimage.maximum_filter(as_bytes, size=size).view(bool))
+            assert np.array_equal(shrink(mask, size), ndimage.minimum_filter(as_bytes, size=size).view(bool))
         assert np.array_equal(fill_holes(mask), ndimage.binary_fill_holes(mask))
+
+
+def test_where_is_nonzero_in_row_major_order() -> None:
+    for mask in _masks(4, 20):
+        rows, cols = where(mask)
+        ref_rows, ref_cols = np.nonzero(mask)
+        assert np.array_equal(rows, ref_rows) and np.array_equal(cols, ref_cols)
 
 
 def test_grid_boundary_is_the_first_and_last_cell_of_every_row_and_column() -> None:
@@ -92,15 +126,6 @@ def test_of_colour_decides_as_the_chroma_distance_on_every_colour(tol: float) ->
         expected = colour_distance(chroma(px), own) < tol
         assert np.array_equal(of_colour(px, own, tol), expected)
     assert of_colour(px[: 86**3].reshape(86, -1, 3), own, tol).shape == (86, 86 * 86)
-
-
-def test_colour_median_counts_as_numpys_median() -> None:
-    rng = np.random.default_rng(5)
-    for n in (1, 2, 3, 10, 11, 500, 501):
-        px = rng.integers(0, 256, (n, 3)).astype(np.uint8)
-        assert np.array_equal(median(px), np.median(px.astype(np.float64), axis=0))
-        same = np.repeat(px[:1], n, axis=0)
-        assert np.array_equal(median(same), px[0].astype(np.float64))
 
 
 def test_plane_fit_drops_what_stands_on_it_and_refuses_a_line() -> None:

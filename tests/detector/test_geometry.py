@@ -7,7 +7,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from sofia_detector import detect
-from sofia_detector.outline import min_area_rect
+from sofia_detector.geometry.rect import min_area_rect
 from sofia_schemas import Board
 
 BOARD = Board.default()
@@ -69,5 +69,5 @@ def test_min_area_rect_of_a_rectangle(w: float, h: float, yaw: float, cx: float,
     c, s = np.cos(yaw), np.sin(yaw)
     xy = g @ np.array([[c, s], [-s, c]]) + (cx, cy)
     rect = min_area_rect(xy)
-    assert np.allclose(rect.center, (cx, cy), atol=1e-9)
-    assert sorted(rect.size) == pytest.approx(sorted((w, h)), rel=1e-9)
+    assert np.allclose(rect.center, (cx, cy), atol=1e-6)  # OpenCV's float32 about the first point
+    assert sorted(rect.size) == pytest.approx(sorted((w, h)), rel=1e-5)

@@ -1,4 +1,5 @@
-"""The compiled hull and least-area rectangle against Qhull and a brute-force search."""
+"""The hull (OpenCV's) and the least-area rectangle against Qhull and a brute-force search; the
+kernels compiled ahead of detection; the cone's Gauss-Newton fit."""
 
 from __future__ import annotations
 
@@ -9,8 +10,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.spatial import ConvexHull
-from sofia_detector.kernels import hull_indices, least_area_box
-from sofia_detector.outline import hull, min_area_rect
+from sofia_detector.geometry.rect import hull, min_area_rect
 
 
 def _clouds(seed: int, n: int) -> list[np.ndarray]:
@@ -23,29 +23,23 @@ def _clouds(seed: int, n: int) -> list[np.ndarray]:
     return [blob, grid, sliver]
 
 
-@pytest.mark.parametrize("seed", range(20))
+@pytest.mark.parametrize("seed", range(10))
 def test_hull_is_qhulls(seed: int) -> None:
+    """Every vertex of Qhull's hull is one of ours (within OpenCV's float32, 0.1 um here), and
+    ours lie on Qhull's hull."""
     for xy in _clouds(seed, 30 + 40 * seed):
-        ours = hull_indices(xy)
+        ours = hull(xy)
         qhull = ConvexHull(xy)
-        assert {tuple(p) for p in xy[qhull.vertices]} <= {tuple(p) for p in xy[ours]}  # repeats: any index
-        # Qhull drops vertices within its round-off of collinear (pixel-grid outlines): ours lie on its hull
-        offset = xy[ours] @ qhull.equations[:, :2].T + qhull.equations[:, 2]
-        assert np.all(np.abs(offset.max(axis=1)) < 1e-12)
-        v = xy[ours]  # counter-clockwise: positive area, every turn to the left
-        e = np.roll(v, -1, axis=0) - v
-        turns = e[:, 0] * np.roll(e, -1, axis=0)[:, 1] - e[:, 1] * np.roll(e, -1, axis=0)[:, 0]
-        assert np.all(turns > 0)
+        d = np.linalg.norm(xy[qhull.vertices][:, None] - ours[None], axis=2)
+        assert np.all(d.min(axis=1) < 1e-7)
+        offset = ours @ qhull.equations[:, :2].T + qhull.equations[:, 2]
+        assert np.all(np.abs(offset.max(axis=1)) < 1e-7)
 
 
-def test_degenerate_point_sets_are_kept_whole() -> None:
+def test_degenerate_point_sets_give_flat_rectangles() -> None:
     line = np.column_stack([np.linspace(0, 1, 5), np.linspace(0, 2, 5)])
-    assert hull_indices(line).size == 2  # no area: its ends
-    assert np.array_equal(hull(line), line)
-    same = np.ones((4, 2))
-    assert np.array_equal(hull(same), same)
     rect = min_area_rect(line)
-    assert rect.size.min() == pytest.approx(0.0, abs=1e-12)
+    assert rect.size.min() == pytest.approx(0.0, abs=1e-6)
     assert rect.size.max() == pytest.approx(np.hypot(1, 2))
     one = min_area_rect(np.array([[0.3, -0.2]]))
     assert np.allclose(one.center, (0.3, -0.2)) and np.allclose(one.size, 0.0)
@@ -73,12 +67,13 @@ def _edge_areas(v: np.ndarray, max_yaw: float) -> np.ndarray:
 @given(seed=st.integers(0, 10_000), n=st.integers(3, 300), max_yaw=st.sampled_from([np.inf, 0.3, 0.07]))
 def test_least_area_box_is_the_least_over_the_allowed_edges(seed: int, n: int, max_yaw: float) -> None:
     xy = np.random.default_rng(seed).normal(size=(n, 2)) * (0.05, 0.02)
-    v = xy[hull_indices(xy)]
-    yaw, lo, hi = least_area_box(v, max_yaw)
+    v = xy[ConvexHull(xy).vertices]
+    rect = min_area_rect(xy, None if max_yaw == np.inf else max_yaw)
+    yaw, lo, hi = rect.yaw, rect.lo, rect.hi
     ours = float(np.prod(hi - lo))
     allowed = _edge_areas(v, max_yaw)
     if allowed.size:
-        assert ours == pytest.approx(allowed.min(), rel=1e-12)
+        assert ours == pytest.approx(allowed.min(), rel=1e-5)
         assert -np.pi / 4 <= yaw < np.pi / 4 and abs(yaw) <= max_yaw
     else:
         assert yaw == 0.0
@@ -86,20 +81,20 @@ def test_least_area_box_is_the_least_over_the_allowed_edges(seed: int, n: int, m
         # no sampled yaw gives a smaller box; the brute force may miss the least by more than its
         # yaw step suggests (a thin triangle: 0.2 % at seed 718, n 3), and the bounds below check
         # that ours is the tight box at its own yaw, so it cannot be too small
-        assert ours <= _brute_area(xy) * (1 + 1e-9)
+        assert ours <= _brute_area(xy) * (1 + 1e-5)
     c, s = np.cos(yaw), np.sin(yaw)  # the bounds hold every point
     u, w = c * xy[:, 0] + s * xy[:, 1], -s * xy[:, 0] + c * xy[:, 1]
-    assert np.allclose([u.min(), w.min()], lo) and np.allclose([u.max(), w.max()], hi)
+    assert np.allclose([u.min(), w.min()], lo, atol=1e-6) and np.allclose([u.max(), w.max()], hi, atol=1e-6)
 
 
 def test_no_edge_within_max_yaw_gives_yaw_zero() -> None:
     c, s = np.cos(0.6), np.sin(0.6)
     square = np.array([[0, 0], [1, 0], [1, 1], [0, 1]], dtype=float) @ np.array([[c, s], [-s, c]])
-    yaw, lo, hi = least_area_box(square, 0.1)  # both side directions fold to 0.6 rad
-    assert yaw == 0.0
-    assert np.allclose(lo, square.min(axis=0)) and np.allclose(hi, square.max(axis=0))
+    box = min_area_rect(square, 0.1)  # both side directions fold to 0.6 rad
+    assert box.yaw == 0.0
+    assert np.allclose(box.lo, square.min(axis=0)) and np.allclose(box.hi, square.max(axis=0))
     rect = min_area_rect(square)
-    assert rect.yaw == pytest.approx(0.6) and np.allclose(rect.size, 1.0)
+    assert rect.yaw == pytest.approx(0.6, abs=1e-6) and np.allclose(rect.size, 1.0, atol=1e-6)
 
 
 FRESH_PROCESS = """
@@ -115,11 +110,11 @@ from sofia_replay.synth import write_scene_set
 from sofia_schemas import Board, pointcloud
 
 kernels = {}  # every numba-compiled function of the detector package, by module.name
-for info in pkgutil.iter_modules(sofia_detector.__path__):
-    mod = importlib.import_module(f"sofia_detector.{info.name}")
+for info in pkgutil.walk_packages(sofia_detector.__path__, "sofia_detector."):
+    mod = importlib.import_module(info.name)
     for name, f in vars(mod).items():
         if isinstance(f, CPUDispatcher) and f.py_func.__module__ == mod.__name__:
-            kernels[f"{info.name}.{name}"] = f
+            kernels[f"{info.name.removeprefix('sofia_detector.')}.{name}"] = f
 compile_kernels()
 before = {name: len(f.signatures) for name, f in kernels.items()}
 board = Board.default()
@@ -144,20 +139,10 @@ after = {name: len(f.signatures) for name, f in kernels.items()}
 print(json.dumps({"before": before, "after": after, "statuses": statuses}))
 """
 HELPERS = {
-    "components._root",
-    "components._union",
-    "components.label_sizes",
-    "depth_clean._chroma_px",
-    "depth_clean.same_colour",
-    "pixels._counted_median",
-    "pixels.grow_jit",
-    "plane._in_frame",
-    "sums._block",
-    "sums._interleaved",
-    "sums._pairwise",
-    "sums._sequential",
-    "kernels._turn",
-    "kernels.solve_spd",
+    "depth.clean._chroma_px",
+    "depth.clean.same_colour",
+    "geometry.points._in_frame",
+    "geometry.compiled.solve_spd",
 }
 
 
@@ -187,7 +172,7 @@ def test_compile_kernels_compiles_what_detection_calls(tmp_path: Path) -> None:
 
 
 def test_cone_gauss_newton_finds_the_apex_from_one_flank() -> None:
-    from sofia_detector.kernels import cone_gauss_newton
+    from sofia_detector.objects.caps import cone_gauss_newton
 
     rng = np.random.default_rng(3)
     x, y = rng.uniform(0.0, 0.03, 400), rng.uniform(-0.03, 0.03, 400)  # the flank at x >= 0 only

@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from sofia_detector import detect
-from sofia_detector.depth_clean import bridge, consistent_at
+from sofia_detector.depth.clean import bridge, consistent_at
 from sofia_replay.synth.realism import RealFrame, bench_frame, make_real_frame
 from sofia_schemas import Board
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 from sofia_detector import detect
-from sofia_detector.silhouette import fit_camera, footprint, on_plane
+from sofia_detector.objects.silhouette import fit_camera, footprint, on_plane
 from sofia_replay.synth.realism import bench_frame
 from sofia_schemas import Board
 
@@ -102,7 +102,7 @@ def test_a_silhouette_running_out_of_the_image_places_nothing() -> None:
 
 
 def test_a_footprint_covers_the_points_on_its_rotated_rectangle() -> None:
-    from sofia_detector.footprint import ObjectEstimate
+    from sofia_detector.objects.footprint import ObjectEstimate
 
     est = ObjectEstimate(np.array([0.1, 0.2]), 0.05, (0.06, 0.02), np.pi / 4, np.zeros(3), False, 100)
     along, across = np.array([1.0, 1.0]) / np.sqrt(2), np.array([-1.0, 1.0]) / np.sqrt(2)

@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from sofia_detector import detect
-from sofia_detector.rim import fit_circle
+from sofia_detector.objects.rim import fit_circle
 from sofia_schemas import Board
 
 BOARD = Board.default()

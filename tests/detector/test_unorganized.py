@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from sofia_detector import detect
-from sofia_detector.unorganized import dense
+from sofia_detector.segment.unorganized import dense
 from sofia_replay.synth.realism import RealFrame, bench_frame
 from sofia_schemas import Board
 

@@ -7,8 +7,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from sofia_detector import detect
-from sofia_detector.caps import fit_cone_apex
-from sofia_detector.rim import round_side
+from sofia_detector.objects.caps import fit_cone_apex
+from sofia_detector.objects.rim import round_side
 from sofia_replay.synth.realism import RealFrame, bench_frame
 from sofia_schemas import Board
 

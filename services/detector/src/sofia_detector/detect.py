@@ -9,19 +9,16 @@ from typing import Any
 import numpy as np
 from sofia_schemas import Board
 from sofia_schemas.messages import DetectedObject, Detection
-from sofia_schemas.transforms import invert
 
-from .board_fit import BoardFit, fit_board
-from .colour import board_white, lit_share, name_colour, shaded_like_another
-from .depth_clean import pixel_spacing
+from .board import fit_board
 from .errors import BadCloud
-from .footprint import ObjectEstimate, estimate_object, half_turn, length_first
+from .geometry.samples import median
+from .objects.colour import board_white, lit_share, name_colour, shaded_like_another
+from .objects.footprint import ObjectEstimate, estimate_object, half_turn, length_first
+from .objects.silhouette import silhouette
+from .objects.visibility import InView, in_view
 from .params import DetectorParams
-from .pixels import median, median_u8_at
-from .segment import Levels, ObjectPoints, organized_objects
-from .silhouette import silhouette
-from .unorganized import unorganized_objects
-from .visibility import InView, in_view
+from .segment import ObjectPoints, find_objects
 
 DEFAULT_PARAMS = DetectorParams()
 HOLES_OK = 0.05  # share of an object's pixels without depth that costs no confidence
@@ -81,31 +78,6 @@ def _to_message(
     )  # fmt: skip
 
 
-def levels(fit: BoardFit, params: DetectorParams, organized: bool) -> Levels:
-    """Thresholds of one cloud from the board's fitted noise and (organized) pixel spacing."""
-    noise = fit.plane.rms if np.isfinite(fit.plane.rms) else 0.002
-    spacing = pixel_spacing(fit.m_coarse, params.stride) if organized else params.cell
-    return Levels(
-        seed=max(params.seed_height, params.noise_k * noise),
-        point=max(params.object_height, params.point_k * noise),
-        delta=params.neighbour_px * spacing + 3 * noise,
-        delta_coarse=2 * params.stride * spacing + 4 * noise,
-        colour_tol=params.colour_tol,
-    )
-
-
-def _objects(
-    cloud: np.ndarray, rgb: np.ndarray | None, fit: BoardFit, board: Board, params: DetectorParams, lv: Levels
-) -> list[ObjectPoints]:
-    half = np.array(board.extent) / 2 + params.field_margin
-    T_board_plane = fit.T_board_plane
-    if cloud.ndim == 3:
-        return list(
-            organized_objects(cloud, fit.m_coarse, fit.T_base_board, T_board_plane, half, params, lv, rgb)
-        )
-    return list(unorganized_objects(fit.m_coarse, invert(T_board_plane), half, params, lv.point, rgb))
-
-
 def as_colours(rgb: object, cloud: np.ndarray) -> np.ndarray | None:
     """Validate colours aligned with ``cloud``: uint8 of shape ``cloud.shape`` (or None)."""
     if rgb is None:
@@ -131,7 +103,7 @@ def _colour(
     if obj.rgb is None or obj.rows is None or obj.cols is None:
         return None, None
     rows, cols = obj.rows[sel], obj.cols[sel]
-    named = name_colour(median_u8_at(obj.rgb, rows, cols), white, params.palette)
+    named = name_colour(median(obj.rgb[rows, cols]), white, params.palette)
     if obj.window is None or not shaded_like_another(named[0], params.palette):
         return named
     lit = lit_share(obj.window, rows, cols)
@@ -210,8 +182,7 @@ def detect(
             detail=f"no board surface within {params.board_band} m of the configured board "
             f"({n_total} points)",
         )  # fmt: skip
-    lv = levels(fit, params, organized)
-    found = _objects(cloud, colours, fit, board, params, lv)
+    found = find_objects(cloud, colours, fit, board, params)
     t2 = time.perf_counter()
     white = None
     need_white = colours is not None  # measured once, for the first object named

@@ -21,7 +21,7 @@ from sofia_schemas.messages.calibration import CameraCorrection
 from sofia_schemas.transforms import as_transforms, interpolate_poses, invert, make_transform
 
 from .errors import BadTransformFile, TransformUnavailable
-from .plane import change_frame, coords
+from .geometry.points import change_frame, coords
 
 log = logging.getLogger(__name__)
 JUMP_BACK_NS = 1_000_000_000  # a pose this much older than the newest starts a new time line

@@ -4,7 +4,17 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from .colour import DEFAULT_PALETTE
+DEFAULT_PALETTE: tuple[tuple[str, tuple[int, int, int]], ...] = (
+    ("red", (200, 30, 35)),
+    ("orange", (235, 120, 30)),
+    ("yellow", (230, 200, 40)),
+    ("green", (40, 160, 60)),
+    ("blue", (30, 80, 200)),
+    ("purple", (130, 50, 160)),
+    ("white", (235, 235, 230)),
+    ("grey", (128, 128, 128)),
+    ("black", (25, 25, 28)),
+)
 
 
 @dataclass(frozen=True)

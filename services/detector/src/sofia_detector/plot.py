@@ -13,8 +13,8 @@ import numpy as np
 from sofia_schemas import Board
 from sofia_schemas.messages import Detection
 
+from .geometry.points import coords
 from .pick import PickParams, pick_target, pickable
-from .plane import coords
 
 CELL_M = 0.003  # side of the height map's cells
 ALLOWED, NOT_ALLOWED = "#2ca02c", "#ff7f0e"  # footprint colours

@@ -8,8 +8,8 @@ from dataclasses import dataclass
 
 from sofia_schemas.messages import Detection
 
-from .colour import DEFAULT_PALETTE
 from .errors import DetectorError
+from .params import DEFAULT_PALETTE
 
 KNOWN = ("colour", "color")
 

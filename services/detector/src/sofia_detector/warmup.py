@@ -22,16 +22,15 @@ from sofia_schemas.messages import Detection
 from sofia_schemas.ros2.encoding import decode_flange
 from sofia_schemas.rosmsg import encode_flange_pose
 
-from . import board_fit, board_grid, caps, colour, footprint, holes, rim, sums, visibility
-from .caps import fit_top
-from .components import fill_holes, label8, label_boxes, largest_label, max_filter
-from .depth_clean import bridge, consistent_at, median_chroma, of_colour, pixel_spacing
-from .kernels import warm_kernels
-from .outline import boundary_points, fit_outline, grid_boundary
+from .board.outline import fit_outline
+from .board.plane import fit_plane
+from .depth.clean import bridge, consistent_at, median_chroma, of_colour, pixel_spacing
+from .geometry.grid import boundary_points, grid_boundary
+from .geometry.points import change_frame, points_in_frame
+from .objects import caps, colour, rim
+from .objects.caps import fit_top, warm_kernels
+from .objects.rim import fit_circle
 from .pick import PickParams, first_pick
-from .pixels import masked_points, median, median_u8_at
-from .plane import change_frame, fit_plane, points_in_frame
-from .rim import fit_circle
 
 log = logging.getLogger(__name__)
 
@@ -76,23 +75,10 @@ def compile_kernels() -> None:
     warm_kernels()
     two = np.zeros((6, 6), dtype=bool)
     two[1, 1] = two[4, 4] = True  # two components
-    max_filter(label8(two)[0], 3)
-    label_boxes(*label8(two))
-    largest_label(*label8(two))  # the unorganized board outline's
-    fill_holes(two)
     xyz = np.zeros((3, 6, 6), dtype=np.float32)
     change_frame(xyz, np.eye(4))
     consistent_at(xyz, two, 0.01)
-    masked_points(xyz, two)
-    xy = xyz.reshape(3, -1)[:2]
-    for rows in (xy, np.asfortranarray(xy), xy[:, ::2]):  # points, gathered pixels, a sample
-        sums.means32(rows)
-        sums.means64(rows, np.getbufsize())
     pixel_spacing(xyz, 4)
-    f32 = np.float32
-    board_grid.plane_candidates(xyz.reshape(3, -1), f32(1.0), f32(1.0), f32(0.01), 10)
-    board_grid.board_outline(xyz, f32(0.01), 1.0, 1.0, board_fit._reach_steps(2))
-    board_grid.reach_hits(two, *grid_boundary(two), board_fit._reach_steps(2))  # unorganized clouds
     square = np.array([[0, 0], [1, 0], [1, 1], [0, 1]], dtype=np.float32).repeat(2, axis=0)
     fit_outline(square, (1.0, 1.0), 0.1, 0.01, np.zeros((8, 2)))
     rgb = np.zeros((6, 6, 3), dtype=np.uint8)
@@ -101,7 +87,6 @@ def compile_kernels() -> None:
     bridge(two, ~two, rgb, 0.25)
     x, y = (v.ravel().astype(np.float32) for v in np.mgrid[0:6, 0:6])
     fit_plane(x, y, np.zeros_like(x), (0.01,), 3)
-    holes.bordered_patches(two, ~two, xyz[2], f32(0.005), f32(0.0), f32(0.01), 3)
     _compile_layouts(two, own)
 
 
@@ -121,20 +106,14 @@ def _compile_layouts(two: np.ndarray, own: np.ndarray) -> None:
     centres, allowed = np.zeros((2, 2, 2)), np.zeros((2, 2), dtype=bool)
     for colours in (received_rgb, rgb[:, ::2]):
         bridge(two, ~two, colours, 0.25)
-        visibility._holes(two, two, ~two, colours, own, f32(0.25))
-        holes._of_top_colour(two, xyz[2], colours, own, f32(0.25))
-        for at in (index, index[::2]):
-            median_u8_at(colours, at, at)
         for m in (xyz, xyz[:, ::2, None, 0]):  # organized clouds' coarse grid, unorganized clouds' sample
             colour._white_pixels(m, colours, np.eye(2, 3), np.ones(2), centres, allowed, f32(0.01), 3)
     for h in (xyz[2], xyz[2, :, ::2]):  # a whole window, part of one
-        visibility._ring(two, h, f32(0.01), f32(0.01))
         rim._rim_pixels(two, h, f32(0.01))
-    median(rgb[two])
     boundary_points(index, index, 6, 6)
     for subset in (None, index > 2):  # all of an object's pixels, a subset of them
         boundary_points(index, index, 6, 6, subset)
-    footprint._solid_jit(index, index, index > 2, 6, 6)
+    grid_boundary(two)
     fit_circle(np.random.default_rng(0).normal(size=(20, 2)))
     z = xyz[2].ravel()
     for heights in (z, z[::2], z.astype(np.float64)):

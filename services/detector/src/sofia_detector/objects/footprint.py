@@ -13,16 +13,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..geometry.grid import label_sizes
+from ..geometry.rect import min_area_rect
+from ..geometry.samples import median
+from ..params import DetectorParams
+from ..segment.points import ObjectPoints
 from .caps import fit_cone, fit_cone_apex, fit_top
-from .components import label8_jit, label_sizes
 from .holes import unseen_top
-from .kernels import jit
-from .outline import min_area_rect
-from .params import DetectorParams
-from .pixels import median
 from .rim import round_footprint, round_side
-from .segment import ObjectPoints
-from .sums import means64
 
 FIT_POINTS = 3000  # points used by the fits (every k-th of a large object)
 FLAT_K, FLAT_MIN = 3.0, 0.001  # a top whose heights spread more (noise units + metres) is no flat face
@@ -84,27 +82,13 @@ def _solid(obj: ObjectPoints, subset: np.ndarray) -> np.ndarray:
     slipped through at the same height, not part of a face."""
     if obj.rows is None or obj.cols is None or np.count_nonzero(subset) < 3:
         return subset
-    return _solid_jit(obj.rows, obj.cols, subset, obj.shape[0], obj.shape[1])  # type: ignore[no-any-return]
-
-
-@jit
-def _solid_jit(rows: np.ndarray, cols: np.ndarray, subset: np.ndarray, h: int, w: int) -> np.ndarray:
-    """:func:`_solid` of the pixels (rows, cols) (n,) of an (h, w) grid."""
-    grid = np.zeros((h, w), dtype=np.bool_)
-    for i in range(rows.size):
-        if subset[i]:
-            grid[rows[i], cols[i]] = True
-    labels, n = label8_jit(grid)
+    grid = np.zeros(obj.shape, dtype=bool)
+    grid[obj.rows[subset], obj.cols[subset]] = True
+    labels, n, sizes = label_sizes(grid)
     if n < 2:
-        return subset.copy()
-    sizes = label_sizes(labels, n)
-    sizes[0] = 0
-    largest = sizes.max()
-    least = min(max(10.0, 0.1 * largest), largest)
-    out = np.empty(rows.size, dtype=np.bool_)
-    for i in range(rows.size):
-        out[i] = subset[i] and sizes[labels[rows[i], cols[i]]] >= least
-    return out
+        return subset
+    largest = sizes[1:].max()
+    return subset & (sizes[labels[obj.rows, obj.cols]] >= min(max(10.0, 0.1 * largest), largest))  # type: ignore[no-any-return]
 
 
 def estimate_object(
@@ -146,7 +130,7 @@ def estimate_object(
     v = ((R[0, 1] * b[0] + R[1, 1] * b[1]) - mid[1]) / half[1]
     inner = (h > h_hi - 2.3 * noise - depth) & (u * u + v * v < 0.49)
     top = b[:, inner]
-    mean_top = means64(top[:2], np.getbufsize()) if top.shape[1] else R @ mid
+    mean_top = top[:2].mean(axis=1, dtype=np.float64) if top.shape[1] else R @ mid
     fit = fit_top(top[0] - mean_top[0], top[1] - mean_top[1], top[2])
     curved, tip = False, None
     yaw, whole = rect.yaw, rect
@@ -189,7 +173,7 @@ def estimate_object(
         if side is not None:
             whole_xy, whole_size = side[0], (2 * side[1], 2 * side[1])
     lw, yaw = length_first(size, yaw)
-    centroid = means64(b_all, np.getbufsize())
+    centroid = b_all.mean(axis=1, dtype=np.float64)
     return ObjectEstimate(
         center_xy=np.asarray(center_xy, dtype=np.float64), height=height,
         size=lw, yaw=yaw, centroid=centroid, curved=curved, n_points=n,

@@ -9,8 +9,9 @@ import math
 
 import numpy as np
 
-from .kernels import cone_gauss_newton, jit, solve_spd
-from .outline import Rect
+from ..geometry.compiled import jit, solve_spd
+from ..geometry.rect import Rect
+from ..geometry.samples import median
 
 REACH = 0.85  # a cone's farthest visible points lie at least this share of its base radius out
 CONE_NOISE = 2.0  # a cone's flanks fitted within this many depth noise deviations are a cone
@@ -109,7 +110,7 @@ def fit_cone(b: np.ndarray, rect: Rect, noise: float) -> float | None:
     if k > -0.5 or rms > 3 * noise + 0.003 or rms > 0.8 * rms_cap or a > 2.0 * float(hs.max()):
         return None
     tip = rs < 0.3 * radius  # a cone's tip lies on the line; a bottle's flat cap falls below it
-    if np.count_nonzero(tip) >= 5 and float(np.median(hs[tip] - a - k * rs[tip])) < -(2 * noise + 0.003):
+    if np.count_nonzero(tip) >= 5 and float(median(hs[tip] - a - k * rs[tip])) < -(2 * noise + 0.003):
         return None
     return float(a)
 
@@ -151,6 +152,48 @@ def fit_cone_apex(b: np.ndarray, noise: float) -> tuple[np.ndarray, float, float
     if a > 2.0 * float(h.max()) or not REACH * base <= float(d.max()) <= 1.2 * base:
         return None
     tip = d < 0.3 * base  # a cone's tip lies on it; a bottle's flat cap falls below it
-    if np.count_nonzero(tip) >= 5 and float(np.median(h[tip] - a + k * d[tip])) < -(2 * noise + 0.003):
+    if np.count_nonzero(tip) >= 5 and float(median(h[tip] - a + k * d[tip])) < -(2 * noise + 0.003):
         return None
     return p[2:].copy(), a, base
+
+
+@jit
+def cone_gauss_newton(
+    x: np.ndarray, y: np.ndarray, h: np.ndarray, p: np.ndarray, iters: int, tol: float
+) -> np.ndarray:
+    """Least-squares ``h = a - k |(x, y) - (cx, cy)|`` by Gauss-Newton from ``p`` = (a, k, cx, cy)
+    (4,) float64; x, y, h (n,) float64, metres. Stops after ``iters`` steps or once the apex moves
+    less than ``tol`` metres; returns the parameters (4,) (NaN when a step cannot be solved)."""
+    p = p.copy()
+    for _ in range(iters):
+        JtJ = np.zeros((4, 4))
+        Jtr = np.zeros(4)
+        J = np.empty(4)
+        for i in range(h.size):
+            dx, dy = x[i] - p[2], y[i] - p[3]
+            d = max(math.sqrt(dx * dx + dy * dy), 1e-6)
+            r = p[0] - p[1] * d - h[i]
+            J[0], J[1], J[2], J[3] = 1.0, -d, p[1] * dx / d, p[1] * dy / d
+            for a in range(4):
+                Jtr[a] += J[a] * r
+                for b in range(a + 1):
+                    JtJ[a, b] += J[a] * J[b]
+        for a in range(4):
+            JtJ[a, a] += 1e-9
+            for b in range(a):
+                JtJ[b, a] = JtJ[a, b]
+        step = solve_spd(JtJ, Jtr)
+        p -= step
+        if not np.isfinite(step).all() or max(abs(step[2]), abs(step[3])) < tol:
+            break
+    return p
+
+
+def warm_kernels() -> None:
+    """Compile every kernel (or load it from numba's cache), so that the first detection does not
+    wait for it."""
+    xy = np.random.default_rng(0).normal(size=(40, 2))
+    r = np.hypot(xy[:, 0], xy[:, 1])
+    cone_gauss_newton(
+        xy[:, 0].copy(), xy[:, 1].copy(), 0.05 - 2 * r, np.array([0.05, 1.0, 0.1, 0.1]), 15, 1e-5
+    )

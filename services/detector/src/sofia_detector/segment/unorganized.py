@@ -17,11 +17,11 @@ from collections.abc import Iterator
 import numpy as np
 from scipy import ndimage
 
-from .components import label8, max_filter
-from .depth_clean import chroma, colour_distance, label_means
-from .params import DetectorParams
-from .plane import change_frame
-from .segment import ObjectPoints, inside
+from ..depth.clean import chroma, colour_distance, label_means
+from ..geometry.grid import label8, max_filter
+from ..geometry.points import change_frame
+from ..params import DetectorParams
+from .points import ObjectPoints, inside
 
 VOXEL = 0.005  # metres: a surface at a D435's pixel spacing (1-2 mm at 0.5-1 m) puts 5-25 points in one
 MIN_VOXEL_POINTS = 3

@@ -9,15 +9,12 @@ one edge seen where the other side is cut short (missing depth, the image border
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
-from functools import cached_property
 
 import numpy as np
 
-from .components import label8, largest_label
-from .kernels import hull_indices, jit, least_area_box
-from .pixels import where
+from ..geometry.compiled import jit
+from ..geometry.rect import min_area_rect
 
 
 @dataclass(frozen=True)
@@ -28,105 +25,6 @@ class Outline:
     yaw: float
     size: tuple[float, float]
     complete: tuple[bool, bool]
-
-
-@dataclass(frozen=True)
-class Rect:
-    """Rectangle: ``yaw`` of its first axis; ``lo``, ``hi`` (2,) bounds along its two axes."""
-
-    yaw: float
-    lo: np.ndarray
-    hi: np.ndarray
-
-    @cached_property
-    def R(self) -> np.ndarray:
-        """(2, 2) rotation whose columns are the rectangle axes (computed once per rectangle: the
-        detector reads it, the centre and the size many times)."""
-        c, s = math.cos(self.yaw), math.sin(self.yaw)
-        return _read_only(np.array([[c, -s], [s, c]]))
-
-    @cached_property
-    def center(self) -> np.ndarray:
-        """(2,) centre in the frame of the points."""
-        return _read_only(self.R @ ((self.lo + self.hi) / 2))
-
-    @cached_property
-    def size(self) -> np.ndarray:
-        """(2,) extent along the rectangle's two axes."""
-        return _read_only(self.hi - self.lo)
-
-
-def _read_only(a: np.ndarray) -> np.ndarray:
-    """``a``, marked read-only: a rectangle's cached values are shared by whoever reads them."""
-    a.flags.writeable = False
-    return a
-
-
-def largest_component(mask: np.ndarray) -> np.ndarray:
-    """The largest 8-connected component of a 2-D boolean mask (empty mask in, empty mask out)."""
-    labels, n = label8(mask)
-    if n == 0:
-        return mask
-    return labels == largest_label(labels, n)[0]
-
-
-def grid_boundary(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Row/column extremes of a 2-D mask: every vertex of its convex hull is among them.
-
-    Returns (rows (k,), cols (k,)) int indices of the first and last True cell of every non-empty
-    row, then of every non-empty column.
-    """
-    rows, cols = where(mask)
-    at = boundary_points(rows, cols, *mask.shape)
-    return rows[at], cols[at]
-
-
-@jit
-def boundary_points(
-    rows: np.ndarray, cols: np.ndarray, h: int, w: int, subset: np.ndarray | None = None
-) -> np.ndarray:
-    """:func:`grid_boundary` of pixels given by index: (k,) indices into rows, cols (n,) (distinct
-    pixels of an (h, w) grid) of the first and last pixel of every non-empty row, then of every
-    non-empty column, in :func:`grid_boundary`'s order. subset: (n,) bool, only those pixels
-    (the indices still into rows, cols: nothing is gathered)."""
-    first_c, last_c = np.full(h, -1), np.full(h, -1)  # the point at the row's first, last column
-    first_r, last_r = np.full(w, -1), np.full(w, -1)
-    for i in range(rows.size):
-        if subset is not None and not subset[i]:
-            continue
-        r, c = rows[i], cols[i]
-        if first_c[r] < 0 or c < cols[first_c[r]]:
-            first_c[r] = i
-        if last_c[r] < 0 or c > cols[last_c[r]]:
-            last_c[r] = i
-        if first_r[c] < 0 or r < rows[first_r[c]]:
-            first_r[c] = i
-        if last_r[c] < 0 or r > rows[last_r[c]]:
-            last_r[c] = i
-    by_row, by_col = first_c[first_c >= 0], first_r[first_r >= 0]
-    return np.concatenate((by_row, last_c[last_c >= 0], by_col, last_r[last_r >= 0]))
-
-
-def hull(xy: np.ndarray) -> np.ndarray:
-    """(k, 2) float64 convex hull vertices, counter-clockwise (the points themselves when they span
-    no area)."""
-    xy = np.ascontiguousarray(xy, dtype=np.float64)
-    if not xy.flags.writeable:  # the kernels are compiled for writeable arrays
-        xy = xy.copy()
-    if xy.shape[0] < 3:
-        return xy
-    idx = hull_indices(xy)
-    return xy[idx] if idx.size >= 3 else xy
-
-
-def min_area_rect(xy: np.ndarray, max_yaw: float | None = None) -> Rect:
-    """Minimum-area rectangle of 2-D points (rotating calipers over the hull edges).
-
-    xy: (k, 2) float, metres, k >= 1. max_yaw: if given, only yaws in ``[-max_yaw, max_yaw]`` are
-    considered (0 when no hull edge is in range). The returned yaw is in ``[-pi/4, pi/4)``.
-    """
-    yaw, lo, hi = least_area_box(hull(xy), np.inf if max_yaw is None else float(max_yaw))
-    return Rect(float(yaw), lo, hi)
 
 
 @jit

@@ -12,10 +12,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .depth_clean import median_chroma, same_colour
-from .kernels import jit
-from .pixels import grow_jit
-from .segment import ObjectPoints
+from ..depth.clean import median_chroma, of_colour
+from ..geometry.grid import grow, shrink
+from ..segment.points import ObjectPoints
 
 OCCLUDER_ABOVE = 0.015  # a neighbour this much above the object's top is in front of it, metres
 TRUNCATED = 0.04  # share of the silhouette out of view above which an object is truncated
@@ -47,56 +46,36 @@ def seen_from(depth: np.ndarray, rows: slice, stop: int) -> np.ndarray:
     return np.where(seen.any(axis=1), np.argmax(seen, axis=1), stop)
 
 
-@jit
 def _ring(
-    mask: np.ndarray, h: np.ndarray, above: np.float32, below: np.float32
+    mask: np.ndarray, h: np.ndarray, above: float, below: float
 ) -> tuple[np.ndarray, int, int, int, int, np.ndarray]:
     """The ring around an object's pixels ``mask`` (h, w) bool: the pixels within 2 of it, not on
     it, (h, w) bool; how many; how many of them are higher than ``above`` (in front of the object),
     lower than ``-below`` (beside the board) and within ``below`` of the board (heights ``h``
     (h, w) float32, NaN where missing, metres); and the pixels without depth within 3 of it."""
-    around, reach = grow_jit(mask, 5), grow_jit(mask, 7)
-    rows, cols = mask.shape
-    ring = np.zeros((rows, cols), dtype=np.bool_)
-    near = np.zeros((rows, cols), dtype=np.bool_)
-    n = occluded = low = level = 0
-    for r in range(rows):
-        for c in range(cols):
-            z = h[r, c]
-            near[r, c] = reach[r, c] and np.isnan(z)
-            if around[r, c] and not mask[r, c]:
-                ring[r, c] = True
-                n += 1
-                occluded += z > above
-                low += z < -below
-                level += abs(z) <= below
-    return ring, n, occluded, low, level, near
+    ring = grow(mask, 5) & ~mask
+    near = grow(mask, 7) & np.isnan(h)
+    z = h[ring]
+    with np.errstate(invalid="ignore"):
+        occluded, low, level = (int(np.count_nonzero(k)) for k in (z > above, z < -below, abs(z) <= below))
+    return ring, int(z.size), occluded, low, level, near
 
 
-@jit
 def _holes(
-    mask: np.ndarray, ring: np.ndarray, near: np.ndarray, rgb: np.ndarray, own: np.ndarray, tol: np.float32
+    mask: np.ndarray, ring: np.ndarray, near: np.ndarray, rgb: np.ndarray, own: np.ndarray, tol: float
 ) -> tuple[int, int]:
     """(ring pixels beside missing depth of the object's colour, pixels of that missing depth):
     ``near`` (h, w) bool pixels of the object's colour (``own`` (4,) :func:`.depth_clean.chroma`
     within ``tol``, colours ``rgb`` (h, w, 3) uint8) are its holes; of the ``ring`` pixels those
     within a pixel of a 3 x 3 block of holes (not the grazing slivers along rims) count, except
     the object's own stereo shadow (the two pixels left of ``mask``)."""
-    rows, cols = mask.shape
-    same = np.zeros((rows, cols), dtype=np.bool_)
-    n_same = 0
-    for r in range(rows):
-        for c in range(cols):
-            if near[r, c] and same_colour(rgb[r, c], own, tol):
-                same[r, c] = True
-                n_same += 1
-    around = grow_jit(~grow_jit(~same, 3), 3)
-    holes = 0
-    for r in range(rows):
-        for c in range(cols):
-            shadow = (c + 1 < cols and mask[r, c + 1]) or (c + 2 < cols and mask[r, c + 2])
-            holes += ring[r, c] and around[r, c] and not shadow
-    return holes, n_same
+    same = np.zeros(mask.shape, dtype=bool)
+    same[near] = of_colour(rgb[near], own, tol)
+    shadow = np.zeros_like(mask)
+    shadow[:, :-1] = mask[:, 1:]
+    shadow[:, :-2] |= mask[:, 2:]
+    holes = ring & grow(shrink(same, 3), 3) & ~shadow
+    return int(np.count_nonzero(holes)), int(np.count_nonzero(same))
 
 
 def in_view(obj: ObjectPoints, top: float, tol: float, depth: np.ndarray | None = None) -> InView:
@@ -128,14 +107,13 @@ def in_view(obj: ObjectPoints, top: float, tol: float, depth: np.ndarray | None 
     )
     mask = np.zeros((crop[0].stop - crop[0].start, crop[1].stop - crop[1].start), dtype=bool)
     mask[obj.rows - crop[0].start, obj.cols - crop[1].start] = True
-    # the float32 heights are compared with float32 thresholds (as numpy compares them with a float)
     ring, n_ring, occluded, low, level, near = _ring(
-        mask, obj.window[2][crop], np.float32(top + OCCLUDER_ABOVE), np.float32(BELOW_BOARD)
+        mask, obj.window[2][crop], top + OCCLUDER_ABOVE, BELOW_BOARD
     )
     holes, inner_holes = 0, 0.0
     if obj.rgb is not None and near.any():
         own = median_chroma(obj.rgb, obj.rows[::4], obj.cols[::4])
-        holes, n_same = _holes(mask, ring, near, obj.rgb[crop], own, np.float32(tol))
+        holes, n_same = _holes(mask, ring, near, obj.rgb[crop], own, tol)
         inner_holes = n_same / (n_same + obj.rows.size)
     n = n_ring + edge
     lost = (edge + occluded + holes) / max(n, 1)

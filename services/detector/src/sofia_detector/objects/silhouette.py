@@ -17,13 +17,13 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import ndimage
 
-from .components import fill_holes, label8
-from .depth_clean import EIGHT, median_chroma, of_colour
+from ..depth.clean import EIGHT, median_chroma, of_colour
+from ..geometry.grid import fill_holes, grow, label8, where
+from ..geometry.points import points_in_frame
+from ..geometry.rect import Rect, min_area_rect
+from ..geometry.samples import median
+from ..segment.points import ObjectPoints
 from .holes import dlt
-from .outline import Rect, min_area_rect
-from .pixels import grow, median, where
-from .plane import points_in_frame
-from .segment import ObjectPoints
 
 RAISED = 0.005  # metres: a pixel with depth this close to the board is the board
 MIN_MISSING = 0.5  # share of the silhouette without depth below which the slivers are the object

@@ -13,9 +13,9 @@ import math
 
 import numpy as np
 
-from .components import label8
-from .kernels import jit
-from .pixels import grow_jit, median, median_u8_at
+from ..geometry.compiled import jit
+from ..geometry.grid import grow, label8
+from ..geometry.samples import median
 
 EIGHT = np.ones((3, 3), dtype=bool)
 
@@ -93,7 +93,7 @@ F32_3, F32_8 = np.float32(3.0), np.float32(8.0)
 def median_chroma(rgb: np.ndarray, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
     """(4,) :func:`chroma` of the median colour of the pixels (rows, cols) (n,) of ``rgb`` (h, w, 3)
     uint8: an object's own colour."""
-    return chroma(median_u8_at(rgb, rows, cols))
+    return chroma(median(rgb[rows, cols]))
 
 
 @jit
@@ -158,16 +158,17 @@ def bridge(
     labels, n = label8(seeds)
     if rgb is None or n < 2 or not invalid.any():
         return labels, n
-    grown, joined = _bridge(labels, n, np.ascontiguousarray(invalid), rgb, tol, steps)  # rgb: any strides
+    todo = invalid & grow(labels > 0, 2 * steps + 1)  # the missing pixels growth can reach
+    grown, joined = _bridge(labels, n, todo, rgb, tol, steps)  # rgb: any strides
     return label8(grown > 0) if joined else (labels, n)
 
 
 @jit
 def _bridge(
-    labels: np.ndarray, n: int, invalid: np.ndarray, rgb: np.ndarray, tol: float, steps: int
+    labels: np.ndarray, n: int, todo: np.ndarray, rgb: np.ndarray, tol: float, steps: int
 ) -> tuple[np.ndarray, bool]:
-    """``labels`` (h, w) int32 (1..n) grown ``steps`` times into the ``invalid`` (h, w) pixels within
-    ``steps`` pixels of them whose :func:`chroma` is within ``tol`` of the mean chroma of the
+    """``labels`` (h, w) int32 (1..n) grown ``steps`` times into the ``todo`` (h, w) pixels (missing,
+    within ``steps`` pixels of them) whose :func:`chroma` is within ``tol`` of the mean chroma of the
     largest label among their 8 neighbours (all pixels of a step look at the labels before it);
     and whether any pixel joined. rgb: (h, w, 3) uint8."""
     h, w = labels.shape
@@ -182,7 +183,6 @@ def _bridge(
                 counts[labels[r, c]] += 1.0
     for k in range(n + 1):
         mean[k] /= max(counts[k], 1.0)
-    todo = invalid & grow_jit(labels > 0, 2 * steps + 1)  # the missing pixels growth can reach
     rs, cs = np.nonzero(todo)
     grown = labels.copy()
     lab = np.zeros(rs.size, dtype=np.int32)

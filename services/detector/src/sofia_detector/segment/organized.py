@@ -7,50 +7,21 @@ full resolution only inside each seed's pixel window. Unorganized clouds: :mod:`
 from __future__ import annotations
 
 from collections.abc import Iterator
-from dataclasses import dataclass
 
 import numpy as np
+from scipy import ndimage
 
-from .components import label8, label_boxes
-from .depth_clean import bridge, consistent_at
-from .outline import boundary_points, hull
-from .params import DetectorParams
-from .pixels import masked_points, where
-from .plane import points_in_frame
-from .sums import means32
+from ..depth.clean import bridge, consistent_at
+from ..geometry.grid import label8, masked_points, where
+from ..geometry.points import points_in_frame
+from ..geometry.samples import median
+from ..params import DetectorParams
+from .points import Levels, ObjectPoints, inside
 
 MIN_PART = 10  # pixels of the smallest part standing on an object that is joined to it
+
+
 PART_MARGIN = 0.005  # metres
-
-
-@dataclass(frozen=True)
-class ObjectPoints:
-    """One object: b (3, n) float32 board-frame coordinates (z = height), metres; unorganized
-    clouds with colours give each point's colour. Organized clouds also give each point's pixel (rows, cols) in a window of ``shape``, so that the outline of a
-    subset is found on the pixel grid, with the window around them (coordinates and colours)
-    that tells how much of the object is in view."""
-
-    b: np.ndarray
-    rows: np.ndarray | None = None
-    cols: np.ndarray | None = None
-    shape: tuple[int, int] = (0, 0)
-    origin: tuple[int, int] = (0, 0)  # (row, col) of the window in the image
-    image_shape: tuple[int, int] = (0, 0)
-    window: np.ndarray | None = None  # (3, *shape) float32 board-frame coordinates of the window
-    rgb: np.ndarray | None = None  # (*shape, 3) uint8 colours of the window
-    point_rgb: np.ndarray | None = None  # (n, 3) uint8 colours of the points (unorganized clouds)
-
-    def boundary_xy(self, subset: np.ndarray | None = None) -> np.ndarray:
-        """(k, 2) points of ``subset`` ((n,) bool, default all) including every vertex of the
-        convex hull of their footprint."""
-        if self.rows is None or self.cols is None:
-            return hull((self.b if subset is None else self.b[:, subset])[:2].T)
-        return self.b[:2, boundary_points(self.rows, self.cols, self.shape[0], self.shape[1], subset)].T
-
-
-def inside(xy: np.ndarray, half: np.ndarray) -> bool:
-    """True when xy (2,) lies within +-``half`` (2,) on both axes."""
-    return bool(np.all(np.abs(xy) < half))
 
 
 def _covers(r0: int, c0: int, mask: np.ndarray, rows: np.ndarray, cols: np.ndarray) -> bool:
@@ -58,22 +29,6 @@ def _covers(r0: int, c0: int, mask: np.ndarray, rows: np.ndarray, cols: np.ndarr
     r, c = rows - r0, cols - c0
     ok = (r >= 0) & (r < mask.shape[0]) & (c >= 0) & (c < mask.shape[1])
     return bool(mask[r[ok], c[ok]].any())
-
-
-@dataclass(frozen=True)
-class Levels:
-    """Thresholds measured on the board of one cloud (metres).
-
-    seed: height of a coarse object pixel. point: height of a full-resolution object point.
-    delta, delta_coarse: neighbour distance of :func:`.depth_clean.consistent_at` at full resolution
-    and on the coarse grid. colour_tol: colour distance of holes bridged into an object.
-    """
-
-    seed: float
-    point: float
-    delta: float
-    delta_coarse: float
-    colour_tol: float
 
 
 def organized_objects(
@@ -104,15 +59,14 @@ def organized_objects(
     labels, n = bridge(seeds, ~np.isfinite(m_coarse[2]), rgb_coarse, levels.colour_tol)
     claimed: list[tuple[int, int, np.ndarray]] = []  # (row, col, mask) of the objects found so far
     pad = 2
-    for i, (b_r0, b_r1, b_c0, b_c1) in enumerate(label_boxes(labels, n).tolist(), start=1):
-        if b_r1 == 0:
+    for i, sl in enumerate(ndimage.find_objects(labels, max_label=n), start=1):
+        if sl is None:
             continue
-        sl = (slice(b_r0, b_r1), slice(b_c0, b_c1))
         comp = (labels[sl] == i) & seeds[sl]
         sr, sc = where(comp)
         if sr.size < params.min_seed_pixels:
             continue
-        xy_plane = means32(m_coarse[:2][:, sl[0], sl[1]][:, comp])
+        xy_plane = m_coarse[:2][:, sl[0], sl[1]][:, comp].mean(axis=1)
         if not inside(T_board_plane[:2, :2] @ xy_plane + T_board_plane[:2, 3], half):
             continue  # clutter beside the board
         rows, cols = (sr + sl[0].start) * s, (sc + sl[1].start) * s  # full-resolution seed pixels
@@ -160,7 +114,7 @@ def _with_parts_on_top(
         return obj
     xy = b[:2, obj]
     lo, hi = xy.min(axis=1) - PART_MARGIN, xy.max(axis=1) + PART_MARGIN
-    floor = float(np.median(b[2, obj]))
+    floor = float(median(b[2, obj]))
     out = obj.copy()
     for k in parts:
         part = labels == k

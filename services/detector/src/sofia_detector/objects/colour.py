@@ -22,25 +22,23 @@ from functools import lru_cache
 import numpy as np
 from sofia_schemas import Board
 
-from .depth_clean import chroma, colour_distance
-from .kernels import jit
-from .pixels import median
+from ..depth.clean import chroma, colour_distance
+from ..geometry.compiled import jit
+from ..geometry.samples import median
+from ..params import DEFAULT_PALETTE
 
-DEFAULT_PALETTE: tuple[tuple[str, tuple[int, int, int]], ...] = (
-    ("red", (200, 30, 35)),
-    ("orange", (235, 120, 30)),
-    ("yellow", (230, 200, 40)),
-    ("green", (40, 160, 60)),
-    ("blue", (30, 80, 200)),
-    ("purple", (130, 50, 160)),
-    ("white", (235, 235, 230)),
-    ("grey", (128, 128, 128)),
-    ("black", (25, 25, 28)),
-)
 WHITE_REFERENCE = (235.0, 235.0, 230.0)  # sRGB of the board's white fields in the palette's light
+
+
 MIN_WHITE_PIXELS = 20
+
+
 SAME_HUE = 0.1  # chromaticity distance of palette colours that differ by brightness alone
+
+
 WHITE_STEP = 3  # board_white samples every third row and column of the coarse grid
+
+
 NORMAL_STEP = 2  # pixels between the points whose differences give a face's normal
 
 
@@ -60,7 +58,7 @@ def board_white(
     white = _white_pixels(m_plane, rgb_coarse, A, size, centres, allowed, np.float32(band), WHITE_STEP)
     if white.shape[0] < MIN_WHITE_PIXELS:
         return None
-    return median(white)
+    return median(white)  # type: ignore[no-any-return]
 
 
 @jit

@@ -17,11 +17,11 @@ import math
 
 import numpy as np
 
-from .components import fill_holes
-from .kernels import jit, solve_spd
-from .outline import Rect
-from .pixels import median
-from .segment import ObjectPoints
+from ..geometry.compiled import jit, solve_spd
+from ..geometry.grid import fill_holes
+from ..geometry.rect import Rect
+from ..geometry.samples import median
+from ..segment.points import ObjectPoints
 
 MIN_RIM = 12  # fewest rim pixels for a circle
 MAX_GAP = np.deg2rad(290.0)  # widest angle around the centre without rim pixels

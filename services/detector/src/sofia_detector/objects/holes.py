@@ -17,11 +17,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from .components import label8_jit, max_filter_jit
-from .depth_clean import median_chroma, same_colour
-from .kernels import jit
-from .pixels import grow_jit, median, where
-from .segment import ObjectPoints
+from ..depth.clean import median_chroma, of_colour
+from ..geometry.grid import grow, label8, max_filter, where
+from ..geometry.samples import median
+from ..segment.points import ObjectPoints
 
 MIN_SHARE = 0.03  # fewer missing pixels of the top's colour than this share of the top: nothing to do
 BOARD_LIKE = 0.05  # share of the board around the object of the top's colour above which nothing is done
@@ -68,15 +67,8 @@ def pixel_to_plane(rows: np.ndarray, cols: np.ndarray, xy: np.ndarray) -> np.nda
     return dlt(np.column_stack([cols, rows]).astype(np.float64), np.asarray(xy, dtype=np.float64))
 
 
-@jit
 def bordered_patches(
-    grid: np.ndarray,
-    same: np.ndarray,
-    h: np.ndarray,
-    raised: np.float32,
-    lo: np.float32,
-    hi: np.float32,
-    reach: int,
+    grid: np.ndarray, same: np.ndarray, h: np.ndarray, raised: float, lo: float, hi: float, reach: int
 ) -> np.ndarray:
     """(h, w) bool: the pixels of ``same`` (h, w) bool (missing depth of the top's colour) in
     patches that join the top ``grid`` (h, w) bool through ``same`` and that the top or more
@@ -87,73 +79,48 @@ def bordered_patches(
     side face of the top's colour, seen too obliquely). Pixels at the top's height are the top
     even when not in ``grid`` (pieces of it that missing depth cut off). A pixel within reach of
     two patches counts for the later-numbered one. h: (h, w) float32 heights above the board, NaN
-    where missing; ``raised``, ``lo``, ``hi`` float32, metres."""
-    rows, cols = grid.shape
-    labels, n_all = label8_jit(grid | same)
-    joined = np.zeros(n_all + 1, dtype=np.bool_)
-    filled = np.zeros((rows, cols), dtype=np.bool_)
-    for r in range(rows):
-        for c in range(cols):
-            if grid[r, c]:
-                joined[labels[r, c]] = True
-    for r in range(rows):
-        for c in range(cols):
-            filled[r, c] = same[r, c] and joined[labels[r, c]]
-    parts, n = label8_jit(filled)
-    near = max_filter_jit(parts, reach)  # the patch a pixel borders
-    total = np.zeros(n + 1, dtype=np.int64)
-    up, off, on_board = total.copy(), total.copy(), total.copy()
-    for r in range(rows):
-        for c in range(cols):
-            k = near[r, c]
-            if k == 0 or filled[r, c]:
-                continue
-            z = h[r, c]
-            total[k] += 1
-            if z > raised:
-                up[k] += 1
-                if not grid[r, c] and not (lo <= z <= hi):
-                    off[k] += 1
-            if abs(z) < raised:
-                on_board[k] += 1
-    good = np.zeros(n + 1, dtype=np.bool_)
-    for k in range(1, n + 1):
-        good[k] = off[k] <= OFF_TOP * up[k] and on_board[k] <= BOARD_SEEN * total[k]
-    out = np.zeros((rows, cols), dtype=np.bool_)
-    for r in range(rows):
-        for c in range(cols):
-            out[r, c] = good[parts[r, c]]
-    return out
+    where missing; ``raised``, ``lo``, ``hi`` metres."""
+    labels, n_all = label8(grid | same)
+    joined = np.zeros(n_all + 1, dtype=bool)
+    joined[labels[grid]] = True
+    joined[0] = False
+    filled = same & joined[labels]
+    parts, n = label8(filled)
+    near = max_filter(parts, 2 * reach + 1)  # the patch a pixel borders
+    border = (near > 0) & ~filled
+    k, z = near[border], h[border]
+    with np.errstate(invalid="ignore"):
+        up = z > raised
+        off = up & ~grid[border] & ~((lo <= z) & (z <= hi))
+        on_board = np.abs(z) < raised
+
+    def count(sel: np.ndarray) -> np.ndarray:
+        return np.bincount(k[sel], minlength=n + 1)
+
+    good = (count(off) <= OFF_TOP * count(up)) & (
+        count(on_board) <= BOARD_SEEN * np.bincount(k, minlength=n + 1)
+    )
+    good[0] = False
+    return good[parts]  # type: ignore[no-any-return]
 
 
-@jit
 def _of_top_colour(
-    grid: np.ndarray, h: np.ndarray, rgb: np.ndarray, own: np.ndarray, tol: np.float32
+    grid: np.ndarray, h: np.ndarray, rgb: np.ndarray, own: np.ndarray, tol: float
 ) -> tuple[bool, np.ndarray, int, int, int]:
     """The missing depth of a top's colour around the top ``grid`` (h, w) bool: whether any pixel
     within one of it is such; the pixels without depth (``h`` (h, w) float32 NaN) of its colour
     (``own`` (4,) :func:`.depth_clean.chroma` within ``tol`` of ``rgb`` (h, w, 3) uint8), and how
     many; of every second row and column, the board pixels (within :data:`RAISED` of it) within
     four of the top, and how many of them have its colour."""
-    rows, cols = grid.shape
-    near = grow_jit(grid, 3)
-    same = np.zeros((rows, cols), dtype=np.bool_)
-    beside, n_same = False, 0
-    for r in range(rows):
-        for c in range(cols):
-            if np.isnan(h[r, c]) and same_colour(rgb[r, c], own, tol):
-                same[r, c] = True
-                n_same += 1
-                beside = beside or near[r, c]
-    raised = np.float32(RAISED)
-    around = grow_jit(grid[::2, ::2], 9)
-    n_board = n_board_same = 0
-    for r in range(around.shape[0]):
-        for c in range(around.shape[1]):
-            if around[r, c] and abs(h[2 * r, 2 * c]) < raised:
-                n_board += 1
-                n_board_same += same_colour(rgb[2 * r, 2 * c], own, tol)
-    return beside, same, n_same, n_board, n_board_same
+    missing = np.isnan(h)
+    same = np.zeros(grid.shape, dtype=bool)
+    same[missing] = of_colour(rgb[missing], own, tol)
+    beside = bool((same & grow(grid, 3)).any())
+    h2 = h[::2, ::2]
+    with np.errstate(invalid="ignore"):
+        board = grow(grid[::2, ::2], 9) & (np.abs(h2) < RAISED)
+    n_board_same = int(np.count_nonzero(of_colour(rgb[::2, ::2][board], own, tol)))
+    return beside, same, int(np.count_nonzero(same)), int(np.count_nonzero(board)), n_board_same
 
 
 def unseen_top(obj: ObjectPoints, face: np.ndarray, tol: float) -> np.ndarray:
@@ -172,7 +139,7 @@ def unseen_top(obj: ObjectPoints, face: np.ndarray, tol: float) -> np.ndarray:
     grid[fr, fc] = True
     h = obj.window[2]
     own = median_chroma(obj.rgb, fr[::4], fc[::4])
-    beside, same, n_same, n_board, n_board_same = _of_top_colour(grid, h, obj.rgb, own, np.float32(tol))
+    beside, same, n_same, n_board, n_board_same = _of_top_colour(grid, h, obj.rgb, own, tol)
     if not beside:
         return none  # no missing pixel next to the top of its colour (the board in its stereo shadow)
     if n_same < MIN_SHARE * fr.size:
@@ -181,8 +148,7 @@ def unseen_top(obj: ObjectPoints, face: np.ndarray, tol: float) -> np.ndarray:
         return none  # the object stands on its own colour
     face_h = obj.b[2, face]
     lo, mid = float(face_h.min()), float(median(face_h))
-    f32 = np.float32
-    bordered = bordered_patches(grid, same, h, f32(RAISED), f32(lo), f32(2 * mid - lo), BORDER_PX)
+    bordered = bordered_patches(grid, same, h, RAISED, lo, 2 * mid - lo, BORDER_PX)
     if np.count_nonzero(bordered) < MIN_SHARE * fr.size:
         return none
     hr, hc = where(bordered)

@@ -9,10 +9,12 @@ import numpy as np
 from sofia_schemas import Board
 from sofia_schemas.transforms import invert
 
-from .board_grid import board_outline, plane_candidates, reach_hits
-from .outline import Outline, fit_outline, grid_boundary, largest_component
-from .params import DetectorParams
-from .plane import PlaneFit, T_cfg_plane, change_frame, fit_plane, planar_transform, points_in_frame
+from ..geometry.grid import grid_boundary, largest_component
+from ..geometry.points import change_frame, points_in_frame
+from ..params import DetectorParams
+from .grid import board_outline, plane_candidates, reach_hits
+from .outline import Outline, fit_outline
+from .plane import PlaneFit, T_cfg_plane, fit_plane, planar_transform
 
 MIN_BOARD_POINTS = 50
 PLANE_FIT_POINTS = 2500  # plenty: the plane offset's standard error is ~0.05 mm
@@ -49,7 +51,7 @@ def _drops(low: np.ndarray, r: np.ndarray, c: np.ndarray, reach: int, steps_xy: 
     grid towards the cells of ``low`` (h, w) bool within ``reach`` cells of it along the grid's
     row and column (0 where none): where the board top drops to something below it. steps_xy:
     (2, 2) plane-frame step of one grid row (column 0) and one grid column (column 1), metres."""
-    return _towards(reach_hits(np.ascontiguousarray(low), r, c, _reach_steps(reach)), reach, steps_xy)
+    return _towards(reach_hits(low, r, c, _reach_steps(reach)), reach, steps_xy)
 
 
 def _towards(hits: np.ndarray, reach: int, steps_xy: np.ndarray) -> np.ndarray:
@@ -73,17 +75,10 @@ def _grid_steps(A: np.ndarray) -> np.ndarray:
     """(2, 2) plane-frame step of one grid row (column 0) and one grid column (column 1), metres:
     the affine fit of plane-frame points to their grid cells, from the rows ``(row, col, 1, x, y)``
     of ``A`` (k, 5) float64 (the identity when the points lie on a line)."""
-    (g00, g01, g02, g03, g04), (_, g11, g12, g13, g14), (_, _, g22, g23, g24) = (A[:, :3].T @ A).tolist()
-    # the 3x3 normal equations (symmetric) by cofactors: numpy's solver costs more than they do
-    c00, c01, c02 = g11 * g22 - g12 * g12, g02 * g12 - g01 * g22, g01 * g12 - g02 * g11
-    c11, c12 = g00 * g22 - g02 * g02, g01 * g02 - g00 * g12
-    det = g00 * c00 + g01 * c01 + g02 * c02
-    if not abs(det) > 1e-12 * max(abs(g00 * g11 * g22), 1e-300):
+    G = A[:, :3].T @ A  # the normal equations (3, 5): numpy's least-squares call costs 20x their solve
+    if not abs(np.linalg.det(G[:, :3])) > 1e-12 * abs(G[0, 0] * G[1, 1] * G[2, 2]):
         return np.eye(2)
-    rhs = ((g03, g13, g23), (g04, g14, g24))  # x and y of the points
-    return np.array(
-        [[(c00 * u + c01 * v + c02 * t) / det, (c01 * u + c11 * v + c12 * t) / det] for u, v, t in rhs]
-    )
+    return np.linalg.solve(G[:, :3], G[:, 3:])[:2].T  # type: ignore[no-any-return]
 
 
 def _grid_outline_points(m: np.ndarray, band: float, half: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -95,7 +90,7 @@ def _grid_outline_points(m: np.ndarray, band: float, half: np.ndarray) -> tuple[
     taken on every second cell (plenty); cells lower than ``-band`` lie below it, within
     :data:`EDGE_REACH_PX` cells. Returns (k, 2) float32 and (k, 2) float64 plane-frame vectors.
     """
-    xy, A, hits = board_outline(m, np.float32(band), half[0], half[1], _reach_steps(EDGE_REACH_PX))
+    xy, A, hits = board_outline(m, band, half[0], half[1], _reach_steps(EDGE_REACH_PX))
     if xy.shape[0] == 0:
         return np.empty((0, 2)), np.empty((0, 2))
     return xy, _towards(hits, EDGE_REACH_PX, _grid_steps(A))
@@ -141,8 +136,8 @@ def fit_board(coarse_base: np.ndarray, board: Board, params: DetectorParams) -> 
     """
     q = points_in_frame(coarse_base, board.T_base_board)
     ex, ey = board.extent
-    lim_x, lim_y = (np.float32(e / 2 - params.board_shrink) for e in (ex, ey))
-    qf = plane_candidates(q.reshape(3, -1), lim_x, lim_y, np.float32(params.board_band), PLANE_FIT_POINTS)
+    lim_x, lim_y = (e / 2 - params.board_shrink for e in (ex, ey))
+    qf = plane_candidates(q.reshape(3, -1), lim_x, lim_y, params.board_band, PLANE_FIT_POINTS)
     plane = fit_plane(qf[0], qf[1], qf[2], params.plane_thresholds, MIN_BOARD_POINTS)
     if plane is None:
         return None

@@ -1,0 +1,1 @@
+"""Pixel grids, point frames and rectangles: the building blocks every stage uses."""

@@ -1,0 +1,85 @@
+"""Rectangles around 2-D point sets: the convex hull and the rectangle of least area (OpenCV)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from functools import cached_property
+
+import cv2
+import numpy as np
+
+QUARTER = math.pi / 2
+
+
+@dataclass(frozen=True)
+class Rect:
+    """Rectangle: ``yaw`` of its first axis; ``lo``, ``hi`` (2,) bounds along its two axes."""
+
+    yaw: float
+    lo: np.ndarray
+    hi: np.ndarray
+
+    @cached_property
+    def R(self) -> np.ndarray:
+        """(2, 2) rotation whose columns are the rectangle axes (computed once per rectangle: the
+        detector reads it, the centre and the size many times)."""
+        c, s = math.cos(self.yaw), math.sin(self.yaw)
+        return _read_only(np.array([[c, -s], [s, c]]))
+
+    @cached_property
+    def center(self) -> np.ndarray:
+        """(2,) centre in the frame of the points."""
+        return _read_only(self.R @ ((self.lo + self.hi) / 2))
+
+    @cached_property
+    def size(self) -> np.ndarray:
+        """(2,) extent along the rectangle's two axes."""
+        return _read_only(self.hi - self.lo)
+
+
+def _read_only(a: np.ndarray) -> np.ndarray:
+    """``a``, marked read-only: a rectangle's cached values are shared by whoever reads them."""
+    a.flags.writeable = False
+    return a
+
+
+def hull(xy: np.ndarray) -> np.ndarray:
+    """(k, 2) float64 convex hull vertices of ``xy`` (n, 2) (OpenCV's; the points themselves when
+    fewer than 3)."""
+    xy = np.asarray(xy, dtype=np.float64)
+    if xy.shape[0] < 3:
+        return xy
+    at = cv2.convexHull((xy - xy[0]).astype(np.float32), returnPoints=False)
+    return xy[at[:, 0]]
+
+
+def min_area_rect(xy: np.ndarray, max_yaw: float | None = None) -> Rect:
+    """Minimum-area rectangle of 2-D points: one of its sides lies along an edge of their convex hull.
+
+    xy: (k, 2) float, metres, k >= 1. max_yaw: if given, only yaws in ``[-max_yaw, max_yaw]`` are
+    considered (0 when no hull edge is in range). OpenCV's ``minAreaRect``, or when its yaw is not
+    allowed, the least over the allowed edges of the hull. The returned yaw is in ``[-pi/4, pi/4)``.
+    """
+    xy = np.asarray(xy, dtype=np.float64)
+    (cx, cy), size, angle = cv2.minAreaRect((xy - xy[0]).astype(np.float32))  # float32: 0.1 um here
+    turned = math.radians(angle)
+    yaw = (turned + QUARTER / 2) % QUARTER - QUARTER / 2
+    if max_yaw is None or abs(yaw) <= max_yaw:  # the least of all is the least of those allowed
+        if round((turned - yaw) / QUARTER) % 2:
+            size = size[::-1]
+        c, s = math.cos(yaw), math.sin(yaw)
+        x0, y0 = cx + xy[0, 0], cy + xy[0, 1]
+        mid = np.array([c * x0 + s * y0, -s * x0 + c * y0])
+        return Rect(yaw, mid - np.array(size) / 2, mid + np.array(size) / 2)
+    v = hull(xy)
+    edge = np.roll(v, -1, axis=0) - v
+    yaws = (np.arctan2(edge[:, 1], edge[:, 0]) + QUARTER / 2) % QUARTER - QUARTER / 2
+    yaws = yaws[np.abs(yaws) <= max_yaw]
+    if yaws.size == 0:
+        yaws = np.zeros(1)
+    c, s = np.cos(yaws)[:, None], np.sin(yaws)[:, None]
+    u, w = c * v[:, 0] + s * v[:, 1], c * v[:, 1] - s * v[:, 0]  # (yaws, k) along the two axes
+    lo, hi = np.stack([u.min(axis=1), w.min(axis=1)], 1), np.stack([u.max(axis=1), w.max(axis=1)], 1)
+    i = int(np.argmin(np.prod(hi - lo, axis=1)))
+    return Rect(float(yaws[i]), lo[i], hi[i])

@@ -1,0 +1,6 @@
+"""Stage 3, segmentation: the points of each object (:func:`find_objects`)."""
+
+from .find import find_objects
+from .points import Levels, ObjectPoints
+
+__all__ = ["Levels", "ObjectPoints", "find_objects"]

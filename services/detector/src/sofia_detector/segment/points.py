@@ -1,0 +1,56 @@
+"""The points of one object, and the thresholds measured on the board of one cloud."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..geometry.grid import boundary_points
+from ..geometry.rect import hull
+
+
+@dataclass(frozen=True)
+class ObjectPoints:
+    """One object: b (3, n) float32 board-frame coordinates (z = height), metres; unorganized
+    clouds with colours give each point's colour. Organized clouds also give each point's pixel (rows, cols) in a window of ``shape``, so that the outline of a
+    subset is found on the pixel grid, with the window around them (coordinates and colours)
+    that tells how much of the object is in view."""
+
+    b: np.ndarray
+    rows: np.ndarray | None = None
+    cols: np.ndarray | None = None
+    shape: tuple[int, int] = (0, 0)
+    origin: tuple[int, int] = (0, 0)  # (row, col) of the window in the image
+    image_shape: tuple[int, int] = (0, 0)
+    window: np.ndarray | None = None  # (3, *shape) float32 board-frame coordinates of the window
+    rgb: np.ndarray | None = None  # (*shape, 3) uint8 colours of the window
+    point_rgb: np.ndarray | None = None  # (n, 3) uint8 colours of the points (unorganized clouds)
+
+    def boundary_xy(self, subset: np.ndarray | None = None) -> np.ndarray:
+        """(k, 2) points of ``subset`` ((n,) bool, default all) including every vertex of the
+        convex hull of their footprint."""
+        if self.rows is None or self.cols is None:
+            return hull((self.b if subset is None else self.b[:, subset])[:2].T)
+        return self.b[:2, boundary_points(self.rows, self.cols, self.shape[0], self.shape[1], subset)].T
+
+
+def inside(xy: np.ndarray, half: np.ndarray) -> bool:
+    """True when xy (2,) lies within +-``half`` (2,) on both axes."""
+    return bool(np.all(np.abs(xy) < half))
+
+
+@dataclass(frozen=True)
+class Levels:
+    """Thresholds measured on the board of one cloud (metres).
+
+    seed: height of a coarse object pixel. point: height of a full-resolution object point.
+    delta, delta_coarse: neighbour distance of :func:`.depth_clean.consistent_at` at full resolution
+    and on the coarse grid. colour_tol: colour distance of holes bridged into an object.
+    """
+
+    seed: float
+    point: float
+    delta: float
+    delta_coarse: float
+    colour_tol: float

@@ -15,6 +15,7 @@ from sofia_schemas.transforms import make_transform
 
 from .calibrate import CHILD_FRAME, PARENT_FRAME
 from .errors import InputMismatch
+from .inbox import QUERY_DEADLINE_S
 from .store import MAX_SAMPLES
 
 GUESS_QUAT_TOL = 0.01  # a typed guess quaternion within 1 % of unit norm is normalised
@@ -70,10 +71,24 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     s.add_argument("--min-samples", type=int, default=3, help="samples before the first solve")
     s.add_argument("--max-samples", type=int, default=MAX_SAMPLES,
                    help=f"samples kept at most; more are refused (default {MAX_SAMPLES})")  # fmt: skip
+    s.add_argument("--query-deadline", type=_seconds, default=QUERY_DEADLINE_S, metavar="S",
+                   help="a query the worker reaches more than S seconds after it arrived is answered "
+                   f"'busy, retry' (default {QUERY_DEADLINE_S:g}; clients wait 10 s)")  # fmt: skip
     add_robot_arg(s)
     add_frame_args(s)
     add_zenoh_args(s)
     s.set_defaults(func=run_service)
+
+
+def _seconds(text: str) -> float:
+    """A duration from the command line: a positive, finite number of seconds."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number of seconds") from None
+    if not 0.0 < value < float("inf"):
+        raise argparse.ArgumentTypeError(f"{text} is not a positive number of seconds")
+    return value
 
 
 def add_target_args(p: argparse.ArgumentParser) -> None:

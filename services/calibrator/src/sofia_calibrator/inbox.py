@@ -14,6 +14,8 @@ from collections import deque
 from dataclasses import dataclass, field
 from typing import Any
 
+QUERY_DEADLINE_S = 8.0  # default: a query the worker reaches later is answered "busy, retry"
+
 
 @dataclass
 class Batch:

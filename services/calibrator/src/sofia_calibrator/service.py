@@ -41,7 +41,7 @@ from sofia_schemas.messages.calibration import (
 from .durable import write_atomic
 from .errors import InputMismatch
 from .formats import to_yaml
-from .inbox import Inbox
+from .inbox import QUERY_DEADLINE_S, Inbox
 from .online import Calibrator
 from .pairing import PairingOptions
 from .sample_checks import check_sample
@@ -58,7 +58,6 @@ IDLE_WAKE_S = 0.1  # with nothing to do the worker still wakes, to pair blobs wh
 QUIET_S = 0.05  # samples changed: solve once nothing more has arrived for this long ...
 SOLVE_DELAY_MAX_S = 1.0  # ... or once the first unsolved change is this old
 SETTLING_OPS = ("result", "save")  # queries answered with the result of the samples there are now
-QUERY_DEADLINE_S = 8.0  # a query the worker reaches later is answered "busy, retry" (clients wait 10 s)
 PAGE_MAX = 500  # samples per reply of ``samples`` (about 200 kB); ask the next page with after_id
 
 
@@ -72,8 +71,10 @@ class SamplesPage(BaseModel):
 
 
 class Service:
-    def __init__(self, cal: Calibrator, session: zenoh.Session, keys: Keys, from_clouds: bool) -> None:
+    def __init__(self, cal: Calibrator, session: zenoh.Session, keys: Keys, from_clouds: bool,
+                 query_deadline_s: float = QUERY_DEADLINE_S) -> None:  # fmt: skip
         self.cal, self.session, self.keys, self.from_clouds = cal, session, keys, from_clouds
+        self.query_deadline_s = query_deadline_s  # a query the worker reaches later: "busy, retry"
         self.inbox = Inbox(EVENTS_MAX, CLOUDS_MAX, QUERIES_MAX)
         self.solved_generation = -1  # the store generation of the current result (or failed solve)
         self.solve_failures = 0
@@ -154,9 +155,9 @@ class Service:
             if self.cal.pending:
                 self.step("pair", None)
             for op, query, arrived in batch.queries:
-                if (waited := time.monotonic() - arrived) > QUERY_DEADLINE_S:
+                if (waited := time.monotonic() - arrived) > self.query_deadline_s:
                     self.late_queries += 1
-                    reply_error(query, CalibratorLate(waited, QUERY_DEADLINE_S))
+                    reply_error(query, CalibratorLate(waited, self.query_deadline_s))
                     continue
                 self.step("query", (op, query))
             if self.solved_generation == self.cal.store.generation:
@@ -307,7 +308,7 @@ def main(args: argparse.Namespace) -> int:
     )  # fmt: skip
     stop = StopFlag()
     with zenoh.open(zenoh_config(ZenohOptions.from_args(args))) as session:
-        svc = Service(cal, session, keys, args.from_clouds)
+        svc = Service(cal, session, keys, args.from_clouds, args.query_deadline)
         decls = svc.declare()
         worker = run_worker("calibrator", lambda: svc.run(stop))  # first solves the resumed samples
         log.info(

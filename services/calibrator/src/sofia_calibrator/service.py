@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 import zenoh
-from pydantic import BaseModel, ConfigDict, Field, ValidationError
+from pydantic import ValidationError
 from sofia_runtime.limits import PayloadTooLarge, check_payload, error_text
 from sofia_runtime.service import (
     StatusEndpoint,
@@ -38,15 +38,14 @@ from sofia_schemas.messages.calibration import (
     CalibrationSolveOptions,
 )
 
-from .durable import write_atomic
 from .errors import InputMismatch
-from .formats import to_yaml
 from .inbox import QUERY_DEADLINE_S, Inbox
 from .online import Calibrator
 from .pairing import PairingOptions
+from .result_files import save_result
 from .sample_checks import check_sample
-from .sample_errors import CalibratorBusy, CalibratorLate, SaveFailed, SolveFailed
-from .store import SampleStore
+from .sample_errors import CalibratorBusy, CalibratorLate, SolveFailed
+from .store import SamplesPage, SampleStore
 
 log = logging.getLogger("sofia.calibrator")
 OPS = ("result", "add", "remove", "reset", "solve", "save", "samples")
@@ -58,16 +57,6 @@ IDLE_WAKE_S = 0.1  # with nothing to do the worker still wakes, to pair blobs wh
 QUIET_S = 0.05  # samples changed: solve once nothing more has arrived for this long ...
 SOLVE_DELAY_MAX_S = 1.0  # ... or once the first unsolved change is this old
 SETTLING_OPS = ("result", "save")  # queries answered with the result of the samples there are now
-PAGE_MAX = 500  # samples per reply of ``samples`` (about 200 kB); ask the next page with after_id
-
-
-class SamplesPage(BaseModel):
-    """Payload of ``calibrator/samples`` (optional): the samples with ids above ``after_id``, at
-    most ``limit`` of them, in id order."""
-
-    model_config = ConfigDict(extra="forbid")
-    after_id: int = -1
-    limit: int = Field(PAGE_MAX, ge=1, le=PAGE_MAX)
 
 
 class Service:
@@ -83,22 +72,17 @@ class Service:
         self.pub = session.declare_publisher(keys.calibration_result)
 
     def declare(self) -> list[Any]:
-        subs: list[Any] = [
-            self.session.declare_subscriber(self.keys.flange_pose, self._on_put("pose")),
-            self.session.declare_subscriber(self.keys.blob, self._on_put("blob")),
+        puts = [("pose", self.keys.flange_pose), ("blob", self.keys.blob)]
+        puts += [("cloud", self.keys.camera_points)] if self.from_clouds else []
+        subs: list[Any] = [self.session.declare_subscriber(key, self._on_put(kind)) for kind, key in puts]
+        return subs + [
+            self.session.declare_queryable(self.keys.calibrator_op(op), self._on_query(op)) for op in OPS
         ]
-        if self.from_clouds:
-            subs.append(self.session.declare_subscriber(self.keys.camera_points, self._on_put("cloud")))
-        for op in OPS:
-            subs.append(self.session.declare_queryable(self.keys.calibrator_op(op), self._on_query(op)))
-        return subs
 
     def status(self) -> ServiceStatus:
         """Runs on Zenoh's thread for status queries: reads only."""
         r, store, dropped = self.cal.result, self.cal.store, self.inbox.dropped
-        problems = store.problems()
-        if self.solve_failing:
-            problems = [self.solve_failing, *problems]
+        problems = [self.solve_failing, *store.problems()] if self.solve_failing else store.problems()
         if problems:
             state, detail = "degraded", "; ".join(problems)
         else:
@@ -285,18 +269,7 @@ class Service:
         elif op == "save":
             if self.cal.result is None:
                 raise InputMismatch("nothing to save: no result yet")
-            yaml_path = Path(store.dir) / "T_flange_cam.yaml"
-            launch = Path(store.dir) / "camera_static_transform.launch"
-            ros2 = Path(store.dir) / "camera_static_transform_ros2.sh"
-            try:  # each file whole, old or new: never half written
-                write_atomic(yaml_path, to_yaml(self.cal.result).encode())
-                write_atomic(
-                    launch, f"<launch>\n  {self.cal.result.ros1_static_transform}\n</launch>\n".encode()
-                )
-                write_atomic(ros2, f"#!/bin/sh\n{self.cal.result.ros2_static_transform}\n".encode(), 0o755)
-            except OSError as e:
-                raise SaveFailed(e.filename or store.dir, e.strerror or str(e)) from None
-            reply_json(query, CalibrationFiles(files=[str(yaml_path), str(launch), str(ros2)]))
+            reply_json(query, CalibrationFiles(files=save_result(self.cal.result, Path(store.dir))))
 
 
 def main(args: argparse.Namespace) -> int:
@@ -311,12 +284,7 @@ def main(args: argparse.Namespace) -> int:
         svc = Service(cal, session, keys, args.from_clouds, args.query_deadline)
         decls = svc.declare()
         worker = run_worker("calibrator", lambda: svc.run(stop))  # first solves the resumed samples
-        log.info(
-            "calibrator ready on %s (%d samples, state in %s)",
-            keys.calibrator,
-            len(store.samples),
-            store.path,
-        )
+        log.info("calibrator ready on %s (%d samples in %s)", keys.calibrator, len(store.samples), store.path)
         status = StatusEndpoint(session, keys.status("calibrator"), svc.status)
         while not stop.wait(STATUS_PERIOD_S) and worker.is_alive():
             status.publish()

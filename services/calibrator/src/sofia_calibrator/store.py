@@ -18,7 +18,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
-from pydantic import ValidationError
+from pydantic import BaseModel, ConfigDict, Field, ValidationError
 from sofia_schemas.messages.calibration import CalibrationSample
 from sofia_schemas.transforms import make_transform
 
@@ -36,6 +36,17 @@ IMPORTED_SUFFIX = ".imported"
 IDS_NAME = "samples.db.ids"  # ids below this number may have been given: survives the database's loss
 IDS_BLOCK = 1000  # ids reserved at a time (one small atomic write per block)
 MAX_SAMPLES = 2000  # default bound: a solve of 2,000 samples takes about a second; a lab run uses ~100
+
+PAGE_MAX = 500  # samples per reply of ``samples`` (about 200 kB); ask the next page with after_id
+
+
+class SamplesPage(BaseModel):
+    """Payload of ``calibrator/samples`` (optional): the samples with ids above ``after_id``, at
+    most ``limit`` of them, in id order."""
+
+    model_config = ConfigDict(extra="forbid")
+    after_id: int = -1
+    limit: int = Field(PAGE_MAX, ge=1, le=PAGE_MAX)
 
 
 class SampleStore:

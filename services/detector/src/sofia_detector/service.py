@@ -21,8 +21,6 @@ from __future__ import annotations
 import logging
 import threading
 import time
-from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -33,8 +31,8 @@ from sofia_runtime.limits import check_payload, error_text
 from sofia_runtime.service import StatusEndpoint, StopFlag, query_payload, reply_error, reply_json, run_worker
 from sofia_runtime.shm import SharedReader
 from sofia_runtime.stamps import StampCheck
-from sofia_runtime.zenoh_config import ZenohOptions, zenoh_config
-from sofia_schemas import Board, frames, pointcloud
+from sofia_runtime.zenoh_config import zenoh_config
+from sofia_schemas import pointcloud
 from sofia_schemas.keys import ENCODING_JSON, Keys
 from sofia_schemas.messages import CalibrationResult, Detection, ServiceStatus, now_ns
 from sofia_schemas.messages.calibration import CameraCorrection, correction_applied
@@ -43,28 +41,14 @@ from sofia_schemas.ros2.encoding import decode_flange, typed_cloud
 from .detect import detect
 from .errors import DetectorBusy, DetectorError, TransformUnavailable, UnknownFrame
 from .frames import FlangeHistory, parse_transform, pinned_transform
-from .params import DetectorParams
-from .pick import PickParams, Picks
+from .pick import Picks
 from .selection import select, split_selection
+from .service_config import ServiceConfig
 from .warmup import warm_up
 from .worker import BAD, UNMAPPED, CloudJob, DropLog, WorkQueue, points_to_base
 
 log = logging.getLogger("sofia.detector")
 STATUS_PERIOD_S = 1.0
-POSE_WAIT_S = 0.3  # how long a camera cloud waits for the flange pose of its stamp
-
-
-@dataclass
-class ServiceConfig:
-    board: Board
-    robot: str
-    zenoh: ZenohOptions
-    transform_file: Path | None = None
-    params: DetectorParams = field(default_factory=DetectorParams)
-    pick: PickParams = field(default_factory=PickParams)
-    backlog: int = 1  # clouds kept while busy: 1 keeps only the latest; more absorb a short stall
-    camera_frames: tuple[str, ...] = (frames.CAMERA_FRAME,)  # frame ids mapped with T_flange_cam
-    pose_wait_s: float = POSE_WAIT_S  # how long a camera cloud waits for the flange pose of its stamp
 
 
 class Detector:

@@ -37,6 +37,9 @@ ON_THE_BUS = {  # command -> the tests that run it against running services or s
     ("camera",): "tests/camera/test_service.py",
     ("detector", "serve"): "tests/detector/test_service.py",
     ("viz",): "tests/viz/test_viz.py",
+    # the calibration-targets page: your own files or other labs' data sets, not in the repository
+    ("calibrate", "--setup"): "tests/calibrator/test_any_target.py",
+    ("calibrate", "--target"): "tests/calibrator/test_any_target.py",
 }
 
 

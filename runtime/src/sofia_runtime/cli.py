@@ -81,6 +81,7 @@ EXIT_CODES = """exit codes (every command):
   0    success
   1    the job ran and failed (an error reply or no reply, a failed check, an unhealthy service)
   2    usage or input error (an unknown option, a bad value, a missing or unreadable file)
+  3    `sofia health`: a service is degraded (serving, not healthy; 0 with --degraded-ok)
   130  interrupted (Ctrl-C before the command got going)"""
 
 

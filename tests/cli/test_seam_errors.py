@@ -12,6 +12,7 @@ import pytest
 from sofia_runtime import cli
 
 from ..conftest import SOFIA
+from ..ros2.conftest import wait_port
 from .test_up import free_port
 
 
@@ -21,25 +22,13 @@ def _run(
     return subprocess.run([SOFIA, *args], capture_output=True, text=True, timeout=timeout, env=env)
 
 
-def _wait_port(port: int, timeout: float = 20.0) -> None:
-    import socket
-
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        with socket.socket() as s:
-            if s.connect_ex(("127.0.0.1", port)) == 0:
-                return
-        time.sleep(0.1)
-    raise AssertionError(f"nothing listens on {port}")
-
-
 def test_busy_router_port_one_line_exit_2_and_up_stops(tmp_path: Path) -> None:
     port = free_port()
     endpoint = f"tcp/127.0.0.1:{port}"
     first = subprocess.Popen([SOFIA, "router", "--listen", endpoint], stdout=subprocess.DEVNULL,
                              stderr=subprocess.DEVNULL)  # fmt: skip
     try:
-        _wait_port(port)
+        wait_port(port)
         r = _run("router", "--listen", endpoint)
         assert r.returncode == 2, r.stderr
         assert (

@@ -52,13 +52,7 @@ def test_foxglove_client_gets_channels_and_decodes(sofia_proc, robot_id: str) ->
     flange = FlangePose(stamp_ns=11, translation=(0.4, 0.0, 0.5), rotation_xyzw=(1.0, 0.0, 0.0, 0.0))
     with connect(f"ws://127.0.0.1:{port}", subprotocols=["foxglove.sdk.v1"]) as ws, \
             zenoh.open(zenoh_config()) as session:  # fmt: skip
-        channels: dict[str, dict[str, Any]] = {}
-        deadline = time.monotonic() + 20
-        while not set(WANTED) <= set(channels) and time.monotonic() < deadline:
-            msg = ws.recv(timeout=5)
-            if isinstance(msg, str) and json.loads(msg).get("op") == "advertise":
-                channels.update({c["topic"]: c for c in json.loads(msg)["channels"]})
-        assert set(WANTED) <= set(channels), sorted(channels)
+        channels = _advertised(ws, WANTED)
         assert channels["/sofia/points"]["schemaName"] == "sensor_msgs/msg/PointCloud2"
         assert channels["/sofia/points"]["encoding"] == "cdr"
         assert (

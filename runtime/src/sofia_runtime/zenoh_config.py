@@ -10,7 +10,8 @@ Precedence, lowest first:
    user can neither enter the directory nor be dialled. A router's default listener is such a
    socket too (``local``); TCP only where asked (``--listen tcp/...``, and ``sofia up --ros2``,
    which opens ``tcp/127.0.0.1:7447`` to rmw_zenoh nodes: every local user can then reach the
-   router);
+   router; ``sofia ros2 serve`` also listens on a loopback port, see
+   :func:`sofia_runtime.ros2.service.bridge_options`);
 2. a json5 Zenoh config file: ``--zenoh-config FILE`` or ``$SOFIA_ZENOH_CONFIG``;
 3. environment: ``$SOFIA_ZENOH_MODE`` (peer|client|router), ``$SOFIA_ZENOH_CONNECT`` and
    ``$SOFIA_ZENOH_LISTEN`` (comma-separated endpoints, e.g. ``tcp/zenoh:7447``);

@@ -14,7 +14,9 @@ What an ``RMW_IMPLEMENTATION=rmw_zenoh_cpp`` node expects from a peer:
   the QoS as ``<reliability>:<durability>:<history>,<depth>:<deadline>:<lifespan>:<liveliness>``
   (empty = default: reliable, volatile, keep last);
 - transient-local publishers (``/tf_static``) keep their last samples in a zenoh-ext advanced
-  publisher cache, which late subscribers query.
+  publisher cache, which late subscribers query; reliable ones also send a sporadic heartbeat
+  (their last sequence number, every :data:`SAMPLE_MISS_HEARTBEAT_S` when it changed) so a
+  subscriber that lost the last sample detects it and recovers it from the cache.
 """
 
 from __future__ import annotations
@@ -38,6 +40,7 @@ from sofia_schemas.ros2.typesupport import dds_type_name, type_hash
 log = logging.getLogger("sofia.ros2")
 GID_SIZE = 16
 DOMAIN_ENV = "ROS_DOMAIN_ID"
+SAMPLE_MISS_HEARTBEAT_S = 0.5  # rmw_zenoh's SAMPLE_MISS_DETECTION_HEARTBEAT_PERIOD (500 ms)
 _KEYED = b"\x0fsequence_number"  # the attachment of rmw_zenoh before 0.2.4 named its fields
 
 
@@ -227,11 +230,14 @@ class Publisher:
         self._lock = threading.Lock()
         self._pub: Any
         if qos.transient_local:
+            # as rmw_zenoh: reliable + transient local also detect sample misses (sporadic heartbeat)
+            miss = zenoh.ext.MissDetectionConfig(heartbeat=None, sporadic_heartbeat=SAMPLE_MISS_HEARTBEAT_S)
             self._pub = zenoh.ext.declare_advanced_publisher(
                 graph.session,
                 key,
                 cache=zenoh.ext.CacheConfig(max_samples=qos.depth),
                 publisher_detection=True,
+                sample_miss_detection=miss if qos.reliable else None,
             )
         else:
             cc = zenoh.CongestionControl.BLOCK if qos.block else zenoh.CongestionControl.DROP

@@ -11,6 +11,7 @@ import time
 from typing import Any
 
 import numpy as np
+import pytest
 import zenoh
 from sofia_runtime.zenoh_config import zenoh_config
 from sofia_schemas import pointcloud
@@ -20,6 +21,7 @@ from sofia_schemas.ros2 import convert as cv
 from sofia_schemas.ros2.typesupport import decode
 from sofia_schemas.rosmsg import encode_flange_pose
 from sofia_schemas.transforms import matrix_to_quat_xyzw
+from websockets.exceptions import InvalidStatus
 from websockets.sync.client import connect
 
 DEFAULT_T_FLANGE_CAM = np.array(
@@ -108,7 +110,7 @@ def _advertised(ws: Any, topics: tuple[str, ...]) -> dict[str, dict[str, Any]]:
     return channels
 
 
-def test_client_joining_after_the_calibration_gets_tf_static_and_calibration(
+def test_clients_of_either_subprotocol_joining_after_the_calibration_get_tf_static_and_calibration(
     sofia_proc, robot_id: str
 ) -> None:  # type: ignore[no-untyped-def]
     keys = Keys(robot_id)
@@ -126,8 +128,10 @@ def test_client_joining_after_the_calibration_gets_tf_static_and_calibration(
             if replies and replies[0].ok is not None:
                 logged = json.loads(replies[0].ok.payload.to_bytes())["counters"]["logged"]
         assert logged >= 1
-    for _ in range(2):  # two clients in turn, each after the calibration
-        with connect(f"ws://127.0.0.1:{port}", subprotocols=["foxglove.sdk.v1"]) as ws:
+    # two clients in turn, each after the calibration: one of each subprotocol name (the same protocol)
+    for subprotocol in ("foxglove.sdk.v1", "foxglove.websocket.v1"):
+        with connect(f"ws://127.0.0.1:{port}", subprotocols=[subprotocol]) as ws:  # type: ignore[list-item]
+            assert ws.subprotocol == subprotocol
             channels = _advertised(ws, latched)
             ws.send(json.dumps({"op": "subscribe", "subscriptions": [
                 {"id": i, "channelId": channels[t]["id"]} for i, t in enumerate(latched)]}))  # fmt: skip
@@ -148,4 +152,6 @@ def test_client_joining_after_the_calibration_gets_tf_static_and_calibration(
                 "camera_color_optical_frame",
             )
             assert CalibrationResult.model_validate_json(got["/sofia/calibration"]).stamp_ns == 7
+    with pytest.raises(InvalidStatus, match="HTTP 400"):  # neither name: refused as before
+        connect(f"ws://127.0.0.1:{port}", subprotocols=["other.v1"])  # type: ignore[list-item]
     assert proc.stop() == 0 and "Traceback" not in proc.log()

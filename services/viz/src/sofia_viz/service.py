@@ -15,6 +15,9 @@ Channels (topic, encoding):
 ``/sofia/gripper/state``    JSON :class:`~sofia_schemas.GripperState` (plot the opening, force)
 ==========================  ======================================================================
 
+Clients connect to ``--host``/``--port`` with the subprotocol ``foxglove.sdk.v1`` or
+``foxglove.websocket.v1`` (:mod:`sofia_viz.subprotocols`, in front of the SDK's server).
+
 The saved layout ``sofia_viz/data/layout.json`` (3D panel in the base frame, plots, raw messages)
 opens these in Foxglove: Layouts -> Import from file.
 """
@@ -54,6 +57,7 @@ from sofia_schemas.rosmsg import msgdef
 
 from .errors import PortInUse
 from .scene import board_entity, calibration_entity, detection_entities, pick_entity
+from .subprotocols import SubprotocolFront
 
 log = logging.getLogger("sofia.viz")
 STATUS_PERIOD_S = 1.0
@@ -190,11 +194,15 @@ def main(config: ServiceConfig) -> int:
     keys = Keys(config.robot)
     viz = Viz(config)
     joiners = LateJoiners()
+    # the SDK's server on a loopback port, behind the front that also takes foxglove.websocket.v1 clients
+    server = foxglove.start_server(
+        name=f"sofia {config.robot}", host="127.0.0.1", port=0, server_listener=joiners
+    )
     try:
-        server = foxglove.start_server(name=f"sofia {config.robot}", host=config.host, port=config.port,
-                                       server_listener=joiners)  # fmt: skip
-    except Exception as e:  # the SDK raises its own error types for bind failures
-        raise PortInUse(config.host, config.port, str(e)) from None
+        front = SubprotocolFront(config.host, config.port, server.port)
+    except OSError as e:
+        server.stop()
+        raise PortInUse(config.host, config.port, e.strerror or str(e)) from None
     with zenoh.open(zenoh_config(config.zenoh)) as session:
         subs = [
             session.declare_subscriber(key, viz._guard(what, fn))
@@ -213,11 +221,11 @@ def main(config: ServiceConfig) -> int:
 
         def status() -> ServiceStatus:
             return ServiceStatus(service="viz", stamp_ns=now_ns(), state="ok", detail=viz.last_error,
-                                 counters=dict(viz.counters), info={"foxglove": f"ws://{config.host}:{server.port}", "board": config.board.digest})  # fmt: skip
+                                 counters=dict(viz.counters), info={"foxglove": f"ws://{config.host}:{front.port}", "board": config.board.digest})  # fmt: skip
 
         endpoint = StatusEndpoint(session, keys.status("viz"), status)
         log.info(
-            "viz ready: Foxglove WebSocket on ws://%s:%d (robot %s)", config.host, server.port, config.robot
+            "viz ready: Foxglove WebSocket on ws://%s:%d (robot %s)", config.host, front.port, config.robot
         )
         while True:
             viz.publish_board()
@@ -231,5 +239,6 @@ def main(config: ServiceConfig) -> int:
         endpoint.undeclare()
         for s in subs:
             s.undeclare()
+    front.stop()
     server.stop()
     return 0

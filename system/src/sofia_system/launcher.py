@@ -211,7 +211,8 @@ def default_specs(args: argparse.Namespace) -> list[ServiceSpec]:
     """The router, detector, calibrator and gripper (emulated unless a serial port is given)."""
     ros2 = getattr(args, "ros2", False) or ros2_enabled()
     listen = ["--listen", args.router_listen]
-    if ros2 and args.router_listen != ROS2_ROUTER_LISTEN:  # rmw_zenoh nodes dial this; any local user can
+    # where rmw_zenoh nodes look (any local user can reach it); a TCP --router-listen is theirs instead
+    if ros2 and not args.router_listen.startswith("tcp/"):
         listen += ["--listen", ROS2_ROUTER_LISTEN]
     specs = [ServiceSpec("router", ["router", *listen])]
     if "detector" in args.services:
@@ -252,11 +253,12 @@ def add_up_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--robot-ip", default=None, help="arm: the Franka's FCI address (default: franky-sim)")
     p.add_argument("--router-listen", default=DEFAULT_ROUTER_LISTEN[0], metavar="ENDPOINT",
                    help=f"where the Zenoh router listens (default {DEFAULT_ROUTER_LISTEN[0]}: a socket only this "
-                   f"user reaches; with --ros2 also {ROS2_ROUTER_LISTEN})")  # fmt: skip
+                   f"user reaches; with --ros2 also {ROS2_ROUTER_LISTEN} unless ENDPOINT is TCP)")  # fmt: skip
     p.add_argument("--robot", default=None, help="robot id of every key (default $SOFIA_ROBOT or panda)")
     p.add_argument("--ros2", action="store_true",
                    help="also offer SofIA to ROS 2 nodes using rmw_zenoh (sofia ros2 serve); the router then "
-                   f"also listens on {ROS2_ROUTER_LISTEN}, open to every local user; or $SOFIA_ROS2=1")  # fmt: skip
+                   f"also listens on {ROS2_ROUTER_LISTEN} (or only on a TCP --router-listen), open to every local "
+                   "user; or $SOFIA_ROS2=1")  # fmt: skip
 
 
 def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]

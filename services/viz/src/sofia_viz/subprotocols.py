@@ -23,6 +23,7 @@ LEGACY_SUBPROTOCOL = "foxglove.websocket.v1"
 HEADER = b"sec-websocket-protocol"
 MAX_HEAD_BYTES = 64 * 1024  # an HTTP upgrade request or response head
 CHUNK_BYTES = 256 * 1024
+HANDSHAKE_TIMEOUT_S = 10.0
 
 
 def _read_head(sock: socket.socket) -> tuple[bytes, bytes]:
@@ -83,13 +84,18 @@ class _Handler(socketserver.BaseRequestHandler):
     def handle(self) -> None:
         client: socket.socket = self.request
         try:
-            upstream = socket.create_connection(("127.0.0.1", self.server.upstream_port), timeout=10)
+            upstream = socket.create_connection(
+                ("127.0.0.1", self.server.upstream_port), timeout=HANDSHAKE_TIMEOUT_S
+            )
         except OSError as e:
             log.warning("Foxglove server on 127.0.0.1:%d not reachable: %s", self.server.upstream_port, e)
             return
         with upstream:
+            client.settimeout(HANDSHAKE_TIMEOUT_S)  # a client that never sends its request is dropped
             try:
                 head, rest = _read_head(client)
+                if not head:
+                    return
                 legacy = legacy_only(head)
                 upstream.sendall((_with_subprotocol(head, SDK_SUBPROTOCOL) if legacy else head) + rest)
                 reply, rest = _read_head(upstream)
@@ -100,6 +106,7 @@ class _Handler(socketserver.BaseRequestHandler):
                 log.info("Foxglove handshake from %s failed: %s", self.client_address, e)
                 return
             upstream.settimeout(None)
+            client.settimeout(None)
             back = threading.Thread(target=_pump, args=(upstream, client), name="viz-ws-down", daemon=True)
             back.start()
             _pump(client, upstream)

@@ -20,9 +20,9 @@ from scipy.optimize import fmin
 from scipy.spatial.distance import pdist
 from scipy.spatial.transform import Rotation
 from sofia_calibrator import calibrate, dissipation, map_to_base, read_lab, solve
-from sofia_calibrator.diagnostics import error6
-from sofia_calibrator.simulate import make_problem
-from sofia_calibrator.solver import refine
+from sofia_calibrator.fitting.diagnostics import error6
+from sofia_calibrator.fitting.simulate import make_problem
+from sofia_calibrator.fitting.solver import refine
 from sofia_schemas.transforms import rotation_angle
 
 LAB = Path(__file__).resolve().parents[1] / "data" / "lab"

@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 import yaml
 from sofia_calibrator import to_message, to_yaml
-from sofia_calibrator.calibrate import calibrate
-from sofia_calibrator.simulate import make_problem
+from sofia_calibrator.fitting.calibrate import calibrate
+from sofia_calibrator.fitting.simulate import make_problem
 
 from ..conftest import SOFIA
 
@@ -110,7 +110,7 @@ def test_yaml_and_ros_lines_name_the_direction() -> None:
 
 
 def test_calibrate_from_joints(tmp_path: Path) -> None:
-    from sofia_calibrator.fk import panda_fk
+    from sofia_calibrator.inputs.fk import panda_fk
 
     rng = np.random.default_rng(0)
     q = np.array([0.0, -0.5, 0.0, -2.2, 0.0, 1.9, 0.8]) + rng.uniform(-0.35, 0.35, (10, 7))

@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 from sofia_calibrator import ParseError, calibrate, read_lab, read_poses, read_tfs
 from sofia_calibrator.errors import InputMismatch
-from sofia_calibrator.fk import panda_fk
-from sofia_calibrator.samples_io import read_csv, read_joints, read_json, read_samples
-from sofia_calibrator.simulate import make_problem
+from sofia_calibrator.fitting.simulate import make_problem
+from sofia_calibrator.inputs.fk import panda_fk
+from sofia_calibrator.inputs.sample_files import read_csv, read_joints, read_json, read_samples
 from sofia_schemas.transforms import as_transforms, matrix_to_quat_xyzw
 
 TFS_BLOCK = "translation: \nx: 0.1\ny: 0.2\nz: 0.3\nrotation: \nx: 0.0\ny: 0.0\nz: 0.0\nw: 1.0\n"
@@ -143,7 +143,7 @@ def test_joints_file_drives_a_calibration(tmp_path: Path) -> None:
 
 
 def test_mcap_samples_recover_the_truth(tmp_path: Path) -> None:
-    from sofia_calibrator.mcap_input import read_mcap
+    from sofia_calibrator.inputs.mcap import read_mcap
     from sofia_replay.synth.record import write_calibration_session
 
     session = write_calibration_session(tmp_path / "c.mcap", n_poses=8, seed=4, clouds=False)

@@ -13,10 +13,10 @@ from sofia_runtime.zenoh_config import add_zenoh_args
 from sofia_schemas.keys import add_robot_arg
 from sofia_schemas.transforms import make_transform
 
-from .calibrate import CHILD_FRAME, PARENT_FRAME
 from .errors import InputMismatch
+from .fitting.calibrate import CHILD_FRAME, PARENT_FRAME
 from .inbox import QUERY_DEADLINE_S
-from .store import MAX_SAMPLES
+from .samples.store import MAX_SAMPLES
 
 GUESS_QUAT_TOL = 0.01  # a typed guess quaternion within 1 % of unit norm is normalised
 
@@ -137,7 +137,7 @@ def run_target(args: argparse.Namespace) -> object:
 
         T = read_euler_poses(args.euler_poses, args.euler_convention, args.length_unit)
     elif args.target == "sphere" and args.tfs:
-        from .lab_io import read_tfs
+        from .inputs.lab import read_tfs
 
         T = read_tfs(args.tfs)
     else:
@@ -165,11 +165,11 @@ def add_frame_args(p: argparse.ArgumentParser) -> None:
 
 def load_samples(args: argparse.Namespace) -> tuple[np.ndarray, np.ndarray]:
     """(p_cam, T_base_flange) from whichever source the arguments name."""
-    from .lab_io import read_lab, read_poses
-    from .samples_io import read_joints, read_samples
+    from .inputs.lab import read_lab, read_poses
+    from .inputs.sample_files import read_joints, read_samples
 
     if args.mcap:
-        from .mcap_input import read_mcap
+        from .inputs.mcap import read_mcap
 
         m = read_mcap(args.mcap, from_clouds=args.from_clouds)
         for r in m.rejected:
@@ -190,7 +190,7 @@ def load_samples(args: argparse.Namespace) -> tuple[np.ndarray, np.ndarray]:
 
 
 def run_calibrate(args: argparse.Namespace) -> int:
-    from .calibrate import calibrate
+    from .fitting.calibrate import calibrate
 
     if args.target != "blob" or args.setup != "eye-in-hand":
         return _report(run_target(args), args)

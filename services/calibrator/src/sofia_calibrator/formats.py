@@ -11,9 +11,9 @@ import numpy as np
 from sofia_schemas.messages import CalibrationResult, now_ns
 from sofia_schemas.messages.calibration import CalibrationSummary, CorrectionCandidate
 
-from .calibrate import CHILD_FRAME, PARENT_FRAME, Calibration
-from .correction import describe
-from .fit import Fit
+from .fitting.calibrate import CHILD_FRAME, PARENT_FRAME, Calibration
+from .fitting.correction import describe
+from .fitting.fit import Fit
 
 
 def _f(v: float) -> str:

@@ -39,7 +39,7 @@ class Solution:
     JtJ: np.ndarray  # (9 + k, 9 + k) Gauss-Newton information matrix, params (theta, t, p_base, beta)
     errors: np.ndarray  # (n, 3) predicted minus corrected measured blob, camera frame, metres
     weights: np.ndarray  # (n,) robust weights of the samples at the solution (1 = full weight)
-    model: str = "rigid"  # camera-correction model (see :mod:`sofia_calibrator.correction`)
+    model: str = "rigid"  # camera-correction model (see :mod:`sofia_calibrator.fitting.correction`)
     beta: np.ndarray = field(default_factory=lambda: np.zeros(0))  # (k,) correction unknowns
     J: np.ndarray | None = None  # (3 n, 9 + k) whitened Jacobian at the solution
     whitened: np.ndarray | None = None  # (n, 3) whitened residuals (errors / sigma)
@@ -87,10 +87,10 @@ def refine(
 
     Residual (camera frame) f_i = R^T (R_i^T (p_base - t_i) - t) - (p_cam_i + G_i beta) =: u_i - c_i
     with df/dtheta = [u_i]x, df/dt = -R^T, df/dp_base = R^T R_i^T, df/dbeta = -G_i (the camera
-    correction of ``model``, :mod:`sofia_calibrator.correction`). sigma: (n, 3) per-axis camera-frame
+    correction of ``model``, :mod:`sofia_calibrator.fitting.correction`). sigma: (n, 3) per-axis camera-frame
     noise, metres (whitening); loss: "linear", "huber" or "cauchy" with ``loss_scale`` in sigma
     units (robust loss by iteratively reweighting samples). The iteration runs compiled
-    (:func:`sofia_calibrator.fit_kernels.levenberg_marquardt`).
+    (:func:`sofia_calibrator.fitting.fit_kernels.levenberg_marquardt`).
     """
     G = correction.columns(model, p_cam)
     k = G.shape[2]

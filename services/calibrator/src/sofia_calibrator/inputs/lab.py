@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 from sofia_schemas.transforms import make_transform
 
-from .errors import InputMismatch, ParseError
+from ..errors import InputMismatch, ParseError
 
 _FIELD = re.compile(r"^\s*([xyzw])\s*:\s*(\S+)\s*$")
 _SECTIONS = ("translation", "rotation")

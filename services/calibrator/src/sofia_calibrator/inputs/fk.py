@@ -7,7 +7,7 @@ import numpy as np
 from sofia_schemas.kinematics import PANDA_DH, Q_MAX, Q_MIN, KinematicsError
 from sofia_schemas.kinematics import panda_fk as _panda_fk
 
-from .errors import InputMismatch
+from ..errors import InputMismatch
 
 __all__ = ["PANDA_DH", "Q_MAX", "Q_MIN", "panda_fk"]
 

@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 from sofia_schemas.transforms import make_transform
 
-from .errors import ParseError
+from ..errors import ParseError
 from .fk import panda_fk
 
 POSE_COLUMNS = ("tx", "ty", "tz", "qx", "qy", "qz", "qw")

@@ -4,7 +4,9 @@ from __future__ import annotations
 
 import argparse
 import json
+import logging
 import sys
+from importlib.metadata import entry_points
 from typing import Any
 
 import numpy as np
@@ -18,6 +20,11 @@ from .fitting.calibrate import CHILD_FRAME, PARENT_FRAME
 from .inbox import QUERY_DEADLINE_S
 from .samples.store import MAX_SAMPLES
 
+log = logging.getLogger(__name__)
+
+# modes under `sofia calibrate` that other packages add (the arm's `auto`): each entry point is a
+# function called with the `calibrate` parser
+CALIBRATE_MODES = "sofia.calibrate_modes"
 GUESS_QUAT_TOL = 0.01  # a typed guess quaternion within 1 % of unit norm is normalised
 
 
@@ -55,12 +62,11 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     p.add_argument("--yaml", metavar="OUT", help="also write the result as YAML")
     p.add_argument("--plot", metavar="OUT.png", help="write the dissipation plot")
     p.set_defaults(func=run_calibrate)
-    try:  # `sofia calibrate auto`: the arm service calibrates by itself (needs sofia-arm)
-        from sofia_arm.autocal_cli import register_auto
-    except ImportError:
-        pass
-    else:
-        register_auto(p)
+    for ep in sorted(entry_points(group=CALIBRATE_MODES), key=lambda e: e.name):
+        try:
+            ep.load()(p)
+        except ImportError as e:  # a package whose optional dependencies are missing
+            log.debug("calibrate mode %s unavailable: %s", ep.name, e)
 
     c = sub.add_parser("calibrator", help="the calibrator service")
     cs = c.add_subparsers(dest="calibrator_cmd", required=True, metavar="ACTION")

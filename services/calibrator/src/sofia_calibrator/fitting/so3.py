@@ -1,4 +1,13 @@
-"""Small SO(3) helpers used by the solver (compiled: no scipy or numpy overhead on the hot path)."""
+"""The fit's own SO(3): rotation vectors to matrices and back, the nearest rotation, skew matrices.
+
+Outside compiled loops the calibrator and ``sofia_schemas.transforms`` use SciPy's ``Rotation``;
+the fit needs its own: ``exp_so3`` runs inside the compiled Levenberg-Marquardt loop and
+``log_so3`` inside the compiled motion check, where SciPy cannot be called, and from Python each
+call costs a fraction of SciPy's (``bench/bench_calibrator.py``, same run, loaded 2-core machine:
+exp of one rotation vector 1.0 us vs 58 us for ``Rotation.from_rotvec(...).as_matrix()``, log of 11
+rotations 2.3 us vs 303 us, the nearest rotation 4.9 us vs 54 us for numpy's SVD), which matters
+when a default calibration takes 0.5 ms in all.
+"""
 
 from __future__ import annotations
 

@@ -112,7 +112,7 @@ def test_yaml_and_ros_lines_name_the_direction() -> None:
 
 
 def test_calibrate_from_joints(tmp_path: Path) -> None:
-    from sofia_calibrator.inputs.fk import panda_fk
+    from sofia_schemas.kinematics import panda_fk
 
     rng = np.random.default_rng(0)
     q = np.array([0.0, -0.5, 0.0, -2.2, 0.0, 1.9, 0.8]) + rng.uniform(-0.35, 0.35, (10, 7))

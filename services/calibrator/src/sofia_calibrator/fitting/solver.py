@@ -14,6 +14,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from . import correction, so3
 from . import fit_kernels as fk
@@ -173,19 +174,8 @@ def start_target(
 
 
 def cube_rotations() -> np.ndarray:
-    """(24, 3, 3) the rotations of the cube: well-spread starting rotations."""
+    """(24, 3, 3) the rotations of the cube (SciPy's octahedral group): well-spread starting rotations."""
     return _CUBE.copy()
 
 
-def _cube() -> np.ndarray:
-    perms = [(0, 1, 2), (1, 2, 0), (2, 0, 1), (1, 0, 2), (0, 2, 1), (2, 1, 0)]
-    out = []
-    for perm in perms:
-        for signs in np.array(np.meshgrid([1, -1], [1, -1], [1, -1])).T.reshape(-1, 3):
-            M = np.eye(3)[list(perm)] * signs[:, None]
-            if np.linalg.det(M) > 0:
-                out.append(M)
-    return np.array(out)
-
-
-_CUBE = _cube()
+_CUBE = Rotation.create_group("O").as_matrix().round()  # entries exactly 0 and +-1

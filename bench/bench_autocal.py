@@ -26,8 +26,8 @@ from sofia_arm.autocal_io import LocalCalibrator, Progress
 from sofia_arm.autocal_sim import KinematicArm, SheetEye
 from sofia_arm.poses import solve_ik, views_of
 from sofia_calibrator.blob import find_blob
-from sofia_calibrator.diagnostics import error6
 from sofia_calibrator.errors import CalibrationError
+from sofia_calibrator.fitting.diagnostics import error6
 from sofia_schemas.transforms import invert, rotation_angle
 
 BLOB = np.array([0.5, 0.05, 0.0005])

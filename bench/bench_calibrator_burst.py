@@ -27,9 +27,9 @@ T0_NS = 1_700_000_000_000_000_000
 
 
 def main() -> int:
+    from sofia_calibrator.fitting.simulate import make_problem
     from sofia_calibrator.online import make_sample
-    from sofia_calibrator.sample_log import encode
-    from sofia_calibrator.simulate import make_problem
+    from sofia_calibrator.samples.log import encode
     from sofia_runtime.client import ask
     from sofia_runtime.zenoh_config import open_session
     from sofia_schemas.keys import Keys

@@ -23,10 +23,15 @@ import numpy as np
 from scipy.optimize import least_squares
 from scipy.spatial.transform import Rotation
 from sofia_calibrator import calibrate, read_lab
-from sofia_calibrator.diagnostics import error6
 from sofia_calibrator.eye_to_hand import calibrate_eye_to_hand, flange_base_poses
-from sofia_calibrator.simulate import UNMODELLED_NOISE, make_eye_to_hand, make_problem, unmodelled_problem
-from sofia_calibrator.solver import linear_init
+from sofia_calibrator.fitting.diagnostics import error6
+from sofia_calibrator.fitting.simulate import (
+    UNMODELLED_NOISE,
+    make_eye_to_hand,
+    make_problem,
+    unmodelled_problem,
+)
+from sofia_calibrator.fitting.solver import linear_init
 from sofia_calibrator.targets import read_cloud, read_euler_poses, sphere_centres
 from sofia_calibrator.targets.files import read_opencv_pose_pairs
 from sofia_calibrator.targets.poses import consistency, hand_eye_from_poses

@@ -43,9 +43,9 @@ def start(state: Path, env: dict[str, str], log: Path) -> subprocess.Popen[bytes
 
 def store_vs_fsync(tmp: Path, n: int = 200) -> tuple[float, float]:
     """(ms per add of the store, ms per append + fsync of the same JSON)."""
+    from sofia_calibrator.fitting.simulate import make_problem
     from sofia_calibrator.online import make_sample
-    from sofia_calibrator.simulate import make_problem
-    from sofia_calibrator.store import SampleStore
+    from sofia_calibrator.samples.store import SampleStore
 
     pr = make_problem(n, np.random.default_rng(1))
     samples = [make_sample(T0_NS + k, pr.p_cam[k], pr.T_base_flange[k]) for k in range(n)]
@@ -66,8 +66,8 @@ def store_vs_fsync(tmp: Path, n: int = 200) -> tuple[float, float]:
 
 
 def main() -> int:
+    from sofia_calibrator.fitting.simulate import make_problem
     from sofia_calibrator.online import make_sample
-    from sofia_calibrator.simulate import make_problem
     from sofia_runtime.memory import rss_bytes
     from sofia_runtime.zenoh_config import open_session
     from sofia_schemas.keys import Keys

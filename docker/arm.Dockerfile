@@ -23,5 +23,5 @@ USER sofia
 WORKDIR /home/sofia
 # the calibrator's solver compiled into numba's cache (~/.cache/numba): the first autonomous
 # calibration does not compile (~15 s)
-RUN python -c "from sofia_calibrator.kernels import warm_kernels; warm_kernels()"
+RUN python -c "from sofia_calibrator.fitting.warm import warm_kernels; warm_kernels()"
 CMD ["sofia", "arm", "serve", "--robot-ip", "172.16.0.2"]

@@ -19,5 +19,5 @@ RUN useradd --create-home --uid 10001 --user-group sofia \
 USER sofia
 WORKDIR /var/lib/sofia/calibrator
 # the solver compiled into numba's cache (~/.cache/numba): the first calibration does not compile
-RUN python -c "from sofia_calibrator.kernels import warm_kernels; warm_kernels()"
+RUN python -c "from sofia_calibrator.fitting.warm import warm_kernels; warm_kernels()"
 CMD ["sofia", "calibrator", "serve", "--state-dir", "/var/lib/sofia/calibrator"]

@@ -37,6 +37,6 @@ echo "[install] pip install (SofIA packages + test tools)"
 # first `sofia camera serve` starts at once and the first calibration does not compile (~15 s)
 "$VENV/bin/python" -c "from sofia_camera.pipeline import warm_kernels; warm_kernels()"
 "$VENV/bin/python" -c "from sofia_detector.warmup import compile_kernels; compile_kernels()"
-"$VENV/bin/python" -c "from sofia_calibrator.kernels import warm_kernels; warm_kernels()"
+"$VENV/bin/python" -c "from sofia_calibrator.fitting.warm import warm_kernels; warm_kernels()"
 echo "$inputs" > "$stamp"
 echo "[install] done: $("$VENV/bin/sofia" --version) installed in $VENV"

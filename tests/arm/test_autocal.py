@@ -10,7 +10,7 @@ from sofia_arm.autocal import Autocal, AutocalError, AutocalOptions
 from sofia_arm.autocal_io import LocalCalibrator, Progress
 from sofia_arm.autocal_options import to_arm_result
 from sofia_arm.autocal_sim import KinematicArm, SheetEye
-from sofia_calibrator.diagnostics import check_motion
+from sofia_calibrator.fitting.diagnostics import check_motion
 from sofia_schemas.transforms import rotation_angle
 
 BLOB = np.array([0.5, 0.05, 0.0005])

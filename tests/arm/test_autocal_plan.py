@@ -10,8 +10,8 @@ from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 from sofia_arm import plan
 from sofia_arm.poses import Q_HOME, Reach, in_image, look_at, solve_ik, views_of
-from sofia_calibrator.diagnostics import check_motion
-from sofia_calibrator.noise import sample_noise
+from sofia_calibrator.fitting.diagnostics import check_motion
+from sofia_calibrator.fitting.noise import sample_noise
 from sofia_schemas.kinematics import panda_fk
 from sofia_schemas.transforms import apply, invert, rotation_angle
 

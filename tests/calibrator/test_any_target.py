@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from sofia_calibrator import calibrate, calibrate_target, to_message, to_yaml
 from sofia_calibrator.errors import InputMismatch
-from sofia_calibrator.simulate import make_eye_to_hand, make_problem
+from sofia_calibrator.fitting.simulate import make_eye_to_hand, make_problem
 
 from ..conftest import SOFIA
 

@@ -18,7 +18,7 @@ from sofia_calibrator import (
     read_lab,
     spread,
 )
-from sofia_calibrator.simulate import make_problem
+from sofia_calibrator.fitting.simulate import make_problem
 
 
 def test_lab_data_default_models_the_depth_scale_and_keeps_every_sample(lab_dir: Path) -> None:

@@ -7,8 +7,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from sofia_calibrator.any_target import calibrate_target
-from sofia_calibrator.diagnostics import error6
-from sofia_calibrator.simulate import random_T_flange_cam, views_of
+from sofia_calibrator.fitting.diagnostics import error6
+from sofia_calibrator.fitting.simulate import random_T_flange_cam, views_of
 from sofia_calibrator.targets.poses import hand_eye_from_poses
 
 pytest.importorskip("cv2")

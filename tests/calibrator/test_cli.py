@@ -4,14 +4,16 @@ from __future__ import annotations
 
 import json
 import subprocess
+from importlib.metadata import entry_points
 from pathlib import Path
 
 import numpy as np
 import pytest
 import yaml
-from sofia_calibrator import to_message, to_yaml
-from sofia_calibrator.calibrate import calibrate
-from sofia_calibrator.simulate import make_problem
+from sofia_calibrator import cli, to_message, to_yaml
+from sofia_calibrator.cli import CALIBRATE_MODES
+from sofia_calibrator.fitting.calibrate import calibrate
+from sofia_calibrator.fitting.simulate import make_problem
 
 from ..conftest import SOFIA
 
@@ -110,7 +112,7 @@ def test_yaml_and_ros_lines_name_the_direction() -> None:
 
 
 def test_calibrate_from_joints(tmp_path: Path) -> None:
-    from sofia_calibrator.fk import panda_fk
+    from sofia_schemas.kinematics import panda_fk
 
     rng = np.random.default_rng(0)
     q = np.array([0.0, -0.5, 0.0, -2.2, 0.0, 1.9, 0.8]) + rng.uniform(-0.35, 0.35, (10, 7))
@@ -146,3 +148,15 @@ def test_frames_are_options_and_a_w_first_guess_is_one_more_start(lab_dir: Path)
     assert "fr3_link8 cam_optical 100" in b["ros1_static_transform"]
     assert "--frame-id fr3_link8 --child-frame-id cam_optical" in b["ros2_static_transform"]
     assert a["parent_frame"] == "panda_link8" and a["child_frame"] == "camera_color_optical_frame"
+
+
+def test_calibrate_auto_comes_from_the_arm_through_an_entry_point() -> None:
+    """`sofia calibrate auto` is the arm's mode, registered in the ``sofia.calibrate_modes`` group;
+    the calibrator's CLI imports nothing of the arm (the layers contract checks the source)."""
+    modes = {ep.name: ep.value for ep in entry_points(group=CALIBRATE_MODES)}
+    assert modes == {"auto": "sofia_arm.autocal_cli:register_auto"}
+    r = sofia("calibrate", "auto", "--help")
+    assert r.returncode == 0, r.stderr
+    assert "--target-mm" in r.stdout and "--max-poses" in r.stdout
+    cli_source = Path(cli.__file__).read_text()
+    assert "sofia_arm" not in cli_source

@@ -8,8 +8,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 from sofia_calibrator import calibrate, to_message, to_yaml
-from sofia_calibrator.correction import describe
-from sofia_calibrator.simulate import make_problem
+from sofia_calibrator.fitting.correction import describe
+from sofia_calibrator.fitting.simulate import make_problem
 from sofia_schemas.messages import CalibrationResult
 from sofia_schemas.messages.calibration import (
     CORRECTION_APPLIED_ATTACHMENT,

@@ -6,10 +6,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from sofia_calibrator import to_message, to_yaml
-from sofia_calibrator.diagnostics import error6
 from sofia_calibrator.errors import InputMismatch
 from sofia_calibrator.eye_to_hand import calibrate_eye_to_hand, calibrate_setup
-from sofia_calibrator.simulate import make_eye_to_hand
+from sofia_calibrator.fitting.diagnostics import error6
+from sofia_calibrator.fitting.simulate import make_eye_to_hand
 
 
 def test_a_fixed_camera_and_the_target_on_the_flange_are_recovered() -> None:

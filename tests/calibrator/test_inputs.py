@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 from sofia_calibrator import ParseError, calibrate, read_lab, read_poses, read_tfs
 from sofia_calibrator.errors import InputMismatch
-from sofia_calibrator.fk import panda_fk
-from sofia_calibrator.samples_io import read_csv, read_joints, read_json, read_samples
-from sofia_calibrator.simulate import make_problem
+from sofia_calibrator.fitting.simulate import make_problem
+from sofia_calibrator.inputs.sample_files import read_csv, read_joints, read_json, read_samples
+from sofia_schemas.kinematics import KinematicsError, panda_fk
 from sofia_schemas.transforms import as_transforms, matrix_to_quat_xyzw
 
 TFS_BLOCK = "translation: \nx: 0.1\ny: 0.2\nz: 0.3\nrotation: \nx: 0.0\ny: 0.0\nz: 0.0\nw: 1.0\n"
@@ -113,11 +113,11 @@ def test_panda_fk_ready_pose() -> None:
 
 
 def test_panda_fk_errors() -> None:
-    with pytest.raises(InputMismatch, match=r"shape \(n, 7\)"):
+    with pytest.raises(KinematicsError, match=r"shape \(n, 7\)"):
         panda_fk(np.zeros(6))
-    with pytest.raises(InputMismatch, match=r"joint 4 of sample 0 is 0\.0000 rad, outside"):
+    with pytest.raises(KinematicsError, match=r"joint 4 of sample 0 is 0\.0000 rad, outside"):
         panda_fk(np.zeros(7))
-    with pytest.raises(InputMismatch, match="non-finite"):
+    with pytest.raises(KinematicsError, match="non-finite"):
         panda_fk(np.full(7, np.nan))
 
 
@@ -138,12 +138,12 @@ def test_joints_file_drives_a_calibration(tmp_path: Path) -> None:
     cal = calibrate(p_cam, T)
     np.testing.assert_allclose(cal.T_flange_cam, T_fc, atol=1e-6)
     (tmp_path / "bad.txt").write_text("1 2 3\n")
-    with pytest.raises(ParseError, match=r"bad\.txt:1: joint positions q1\.\.q7 must be 7 numbers"):
+    with pytest.raises(ParseError, match=r"bad\.txt:1: expected 7 comma-separated values q1\.\.q7, got 3"):
         read_joints(tmp_path / "bad.txt")
 
 
 def test_mcap_samples_recover_the_truth(tmp_path: Path) -> None:
-    from sofia_calibrator.mcap_input import read_mcap
+    from sofia_calibrator.inputs.mcap import read_mcap
     from sofia_replay.synth.record import write_calibration_session
 
     session = write_calibration_session(tmp_path / "c.mcap", n_poses=8, seed=4, clouds=False)

@@ -5,9 +5,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
-from sofia_calibrator import calibrate, diagnostics, influence, kernels, noise, so3
-from sofia_calibrator import fit_kernels as fk
-from sofia_calibrator.simulate import make_problem
+from sofia_calibrator import calibrate
+from sofia_calibrator.fitting import diagnostics, influence, kernels, noise, so3
+from sofia_calibrator.fitting import fit_kernels as fk
+from sofia_calibrator.fitting.simulate import make_problem
+from sofia_calibrator.fitting.warm import warm_kernels
 from sofia_schemas.transforms import ORTHONORMAL_TOL, as_transforms
 
 
@@ -96,7 +98,7 @@ def test_read_only_and_strided_inputs_use_the_compiled_kernels() -> None:
 
 
 def test_warm_kernels_compiles_every_entry_point() -> None:
-    kernels.warm_kernels()
+    warm_kernels()
     entry_points = [
         fk.levenberg_marquardt, fk.linear_system, fk.gauss_newton_steps, influence._influence,
         kernels.inverse, kernels.rigid_transforms, so3.exp_so3, so3.log_so3, so3.project_so3,

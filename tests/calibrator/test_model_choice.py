@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 from sofia_calibrator import calibrate, read_lab
-from sofia_calibrator.simulate import make_problem
+from sofia_calibrator.fitting.simulate import make_problem
 
 
 def _held_out_mm(cal, p_cam: np.ndarray, T_base_flange: np.ndarray) -> np.ndarray:  # type: ignore[no-untyped-def]

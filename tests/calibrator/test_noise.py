@@ -6,9 +6,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from sofia_calibrator import calibrate
-from sofia_calibrator.diagnostics import error6
-from sofia_calibrator.noise import camera_sigma, isotropic_component
-from sofia_calibrator.simulate import UNMODELLED_NOISE, make_problem, unmodelled_problem
+from sofia_calibrator.fitting.diagnostics import error6
+from sofia_calibrator.fitting.noise import camera_sigma, isotropic_component
+from sofia_calibrator.fitting.simulate import UNMODELLED_NOISE, make_problem, unmodelled_problem
 
 CHI2_6_68 = 7.0406
 

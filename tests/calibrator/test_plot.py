@@ -12,8 +12,8 @@ import matplotlib
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
-from sofia_calibrator.calibrate import calibrate
-from sofia_calibrator.lab_io import read_lab
+from sofia_calibrator.fitting.calibrate import calibrate
+from sofia_calibrator.inputs.lab import read_lab
 from sofia_calibrator.plot import plot_calibration
 
 matplotlib.use("Agg")

@@ -10,9 +10,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
-from sofia_calibrator.diagnostics import error6
 from sofia_calibrator.errors import InputMismatch, TooFewSamples
-from sofia_calibrator.simulate import make_problem
+from sofia_calibrator.fitting.diagnostics import error6
+from sofia_calibrator.fitting.simulate import make_problem
 from sofia_calibrator.targets.files import read_opencv_pose_pairs
 from sofia_calibrator.targets.poses import consistency, hand_eye_from_poses
 

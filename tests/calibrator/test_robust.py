@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 from sofia_calibrator import DegenerateMotion, calibrate, read_lab
-from sofia_calibrator.noise import camera_sigma
-from sofia_calibrator.simulate import make_problem
+from sofia_calibrator.fitting.noise import camera_sigma
+from sofia_calibrator.fitting.simulate import make_problem
 
 
 def test_clean_sets_rarely_have_a_false_outlier() -> None:

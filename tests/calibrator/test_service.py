@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 import zenoh
 from sofia_calibrator import calibrate
-from sofia_calibrator.simulate import make_problem
+from sofia_calibrator.fitting.simulate import make_problem
 from sofia_schemas.keys import Keys
 from sofia_schemas.messages import BlobObservation, CalibrationResult, FlangePose
 from sofia_schemas.rosmsg import encode_blob, encode_flange_pose

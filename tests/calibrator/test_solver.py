@@ -7,8 +7,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 from sofia_calibrator import calibrate, solve
-from sofia_calibrator.simulate import make_problem
-from sofia_calibrator.so3 import exp, hat, project
+from sofia_calibrator.fitting.simulate import make_problem
+from sofia_calibrator.fitting.so3 import exp, hat, project
 from sofia_schemas.transforms import rotation_angle
 
 

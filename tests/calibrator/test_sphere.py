@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from sofia_calibrator import calibrate
 from sofia_calibrator.errors import InputMismatch, ParseError
-from sofia_calibrator.simulate import make_problem
+from sofia_calibrator.fitting.simulate import make_problem
 from sofia_calibrator.targets import SphereNotFound, find_sphere, read_cloud, read_euler_poses, sphere_centres
 
 REGHEC = Path(os.environ.get("REGHEC_DIR", "/nonexistent")) / "data" / "Sphere"

@@ -5,8 +5,8 @@ from __future__ import annotations
 
 import numpy as np
 from sofia_calibrator import to_message
-from sofia_calibrator.calibrate import calibrate
-from sofia_calibrator.simulate import make_problem
+from sofia_calibrator.fitting.calibrate import calibrate
+from sofia_calibrator.fitting.simulate import make_problem
 
 
 def test_three_samples_do_not_pass() -> None:

@@ -21,10 +21,10 @@ import yaml
 from rosbags.rosbag1 import Writer
 from rosbags.typesys import Stores, get_typestore
 from scipy.spatial.transform import Rotation
-from sofia_calibrator.fk import panda_fk
-from sofia_calibrator.simulate import make_problem
+from sofia_calibrator.fitting.simulate import make_problem
 from sofia_replay import iter_messages, read_truth
 from sofia_schemas import pointcloud
+from sofia_schemas.kinematics import panda_fk
 from sofia_system.launcher import sofia_executable
 
 ROOT = Path(__file__).parents[2]

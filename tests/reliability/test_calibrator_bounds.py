@@ -8,8 +8,8 @@ import json
 from pathlib import Path
 
 import numpy as np
+from sofia_calibrator.fitting.simulate import make_problem
 from sofia_calibrator.online import make_sample
-from sofia_calibrator.simulate import make_problem
 from sofia_schemas.keys import Keys
 from sofia_schemas.messages.calibration import CalibrationSample
 

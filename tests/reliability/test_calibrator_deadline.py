@@ -12,9 +12,9 @@ from pathlib import Path
 
 import numpy as np
 import zenoh
+from sofia_calibrator.fitting.simulate import make_problem
 from sofia_calibrator.online import make_sample
-from sofia_calibrator.simulate import make_problem
-from sofia_calibrator.store import SampleStore
+from sofia_calibrator.samples.store import SampleStore
 from sofia_schemas.keys import Keys
 
 from ..conftest import query_json

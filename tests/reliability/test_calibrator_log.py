@@ -15,11 +15,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from sofia_calibrator.fitting.simulate import make_problem
 from sofia_calibrator.online import make_sample
-from sofia_calibrator.sample_errors import ImplausibleSample, SampleLogError, UnknownSamples
-from sofia_calibrator.sample_log import encode
-from sofia_calibrator.simulate import make_problem
-from sofia_calibrator.store import SampleStore
+from sofia_calibrator.samples.errors import ImplausibleSample, SampleLogError, UnknownSamples
+from sofia_calibrator.samples.log import encode
+from sofia_calibrator.samples.store import SampleStore
 from sofia_schemas.messages.calibration import CalibrationSample
 
 T0_NS = 1_700_000_000_000_000_000
@@ -214,9 +214,9 @@ def test_failed_write_refuses_and_leaves_nothing_to_be_written_later(tmp_path: P
         import resource
         import numpy as np
         from sofia_calibrator.online import make_sample
-        from sofia_calibrator.simulate import make_problem
-        from sofia_calibrator.store import SampleStore
-        from sofia_calibrator.sample_errors import SampleLogError
+        from sofia_calibrator.fitting.simulate import make_problem
+        from sofia_calibrator.samples.store import SampleStore
+        from sofia_calibrator.samples.errors import SampleLogError
         store = SampleStore({str(tmp_path)!r})
         hard = resource.getrlimit(resource.RLIMIT_FSIZE)[1]
         resource.setrlimit(resource.RLIMIT_FSIZE, ({size} + 100, hard))

@@ -12,9 +12,9 @@ from pathlib import Path
 
 import numpy as np
 import zenoh
+from sofia_calibrator.fitting.simulate import make_problem
 from sofia_calibrator.online import make_sample
-from sofia_calibrator.sample_log import encode
-from sofia_calibrator.simulate import make_problem
+from sofia_calibrator.samples.log import encode
 from sofia_runtime import client
 from sofia_runtime.zenoh_config import open_session
 from sofia_schemas.keys import Keys

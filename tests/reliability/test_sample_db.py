@@ -15,9 +15,9 @@ import time
 from pathlib import Path
 
 import numpy as np
+from sofia_calibrator.fitting.simulate import make_problem
 from sofia_calibrator.online import make_sample
-from sofia_calibrator.simulate import make_problem
-from sofia_calibrator.store import SampleStore
+from sofia_calibrator.samples.store import SampleStore
 from sofia_schemas.messages.calibration import CalibrationSample
 
 T0_NS = 1_700_000_000_000_000_000
@@ -44,8 +44,8 @@ WRITER = textwrap.dedent("""
     import sys
     import numpy as np
     from sofia_calibrator.online import make_sample
-    from sofia_calibrator.simulate import make_problem
-    from sofia_calibrator.store import SampleStore
+    from sofia_calibrator.fitting.simulate import make_problem
+    from sofia_calibrator.samples.store import SampleStore
     store = SampleStore(sys.argv[1])
     pr = make_problem(50, np.random.default_rng(int(sys.argv[2])))
     print("ready", flush=True)
@@ -150,7 +150,7 @@ def test_save_is_atomic_under_a_full_disk(tmp_path: Path) -> None:
     script = textwrap.dedent(f"""
         import resource
         from pathlib import Path
-        from sofia_calibrator.durable import write_atomic
+        from sofia_calibrator.samples.durable import write_atomic
         hard = resource.getrlimit(resource.RLIMIT_FSIZE)[1]
         resource.setrlimit(resource.RLIMIT_FSIZE, (1000, hard))
         try:

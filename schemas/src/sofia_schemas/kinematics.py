@@ -2,8 +2,7 @@
 
 Each link: T_{i-1}_{i} = RotX(alpha_{i-1}) TransX(a_{i-1}) RotZ(theta_i) TransZ(d_i). The flange
 (``panda_link8``) is 0.107 m along joint 7's z axis. The Panda and the FR3 share these parameters;
-their joint limits differ. Pure numpy (no scipy), so the arm service and the calibrator use this one
-implementation.
+their joint limits differ. The arm service and the calibrator use this one implementation.
 """
 
 from __future__ import annotations
@@ -13,6 +12,12 @@ from typing import Literal
 import numpy as np
 
 from .errors import SofiaError
+from .transforms import make_transform, matrix_to_quat_xyzw, quat_xyzw_to_matrix
+
+# the arm's names for the poses and rotations of sofia_schemas.transforms (SciPy's Rotation)
+pose_matrix = make_transform
+rotation_to_quat_xyzw = matrix_to_quat_xyzw
+quat_xyzw_to_rotation = quat_xyzw_to_matrix
 
 # (a, d, alpha) per joint, metres and radians (frankaemika.github.io/docs/control_parameters.html)
 PANDA_DH = np.array([
@@ -82,79 +87,3 @@ def panda_fk(q: np.ndarray, check_limits: bool = True) -> np.ndarray:
     for k, (a, d, alpha) in enumerate(PANDA_DH):
         T = T @ _mdh(a, d, alpha, thetas[:, k])
     return T[0] if single else T
-
-
-def rotation_to_quat_xyzw(R: np.ndarray) -> np.ndarray:
-    """Unit quaternions (..., 4) x y z w (w >= 0) of rotation matrices R (..., 3, 3).
-
-    Shepperd's method, numpy only (``sofia_schemas.transforms`` has the scipy-based conversions).
-    """
-    R = np.asarray(R, dtype=np.float64)
-    m = R.reshape(-1, 3, 3)
-    tr = np.trace(m, axis1=1, axis2=2)
-    diag = np.stack([m[:, 0, 0], m[:, 1, 1], m[:, 2, 2], tr], axis=1)
-    k = np.argmax(diag, axis=1)
-    q = np.empty((len(m), 4))
-    # one formula per largest element: x, y, z, w
-    s = np.sqrt(np.maximum(1.0 + 2.0 * diag[np.arange(len(m)), k] - tr, 1e-300)) * 2.0
-    x = np.stack(
-        [
-            0.25 * s,
-            (m[:, 0, 1] + m[:, 1, 0]) / s,
-            (m[:, 0, 2] + m[:, 2, 0]) / s,
-            (m[:, 2, 1] - m[:, 1, 2]) / s,
-        ],
-        1,
-    )
-    y = np.stack(
-        [
-            (m[:, 0, 1] + m[:, 1, 0]) / s,
-            0.25 * s,
-            (m[:, 1, 2] + m[:, 2, 1]) / s,
-            (m[:, 0, 2] - m[:, 2, 0]) / s,
-        ],
-        1,
-    )
-    z = np.stack(
-        [
-            (m[:, 0, 2] + m[:, 2, 0]) / s,
-            (m[:, 1, 2] + m[:, 2, 1]) / s,
-            0.25 * s,
-            (m[:, 1, 0] - m[:, 0, 1]) / s,
-        ],
-        1,
-    )
-    w = np.stack(
-        [
-            (m[:, 2, 1] - m[:, 1, 2]) / s,
-            (m[:, 0, 2] - m[:, 2, 0]) / s,
-            (m[:, 1, 0] - m[:, 0, 1]) / s,
-            0.25 * s,
-        ],
-        1,
-    )
-    for i, cand in enumerate((x, y, z, w)):
-        q[k == i] = cand[k == i]
-    q /= np.linalg.norm(q, axis=1, keepdims=True)
-    q[q[:, 3] < 0] *= -1.0
-    return q.reshape((*R.shape[:-2], 4))
-
-
-def quat_xyzw_to_rotation(q_xyzw: np.ndarray) -> np.ndarray:
-    """Rotation matrices (..., 3, 3) of quaternions (..., 4) x y z w (normalised first), numpy only."""
-    q = np.asarray(q_xyzw, dtype=np.float64)
-    q = q / np.linalg.norm(q, axis=-1, keepdims=True)
-    x, y, z, w = np.moveaxis(q, -1, 0)
-    return np.stack([
-        np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)], -1),
-        np.stack([2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)], -1),
-        np.stack([2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)], -1),
-    ], -2)  # fmt: skip
-
-
-def pose_matrix(position: np.ndarray, q_xyzw: np.ndarray) -> np.ndarray:
-    """(4, 4) transform of a position (3,) and a quaternion (4,) x y z w."""
-    T = np.eye(4)
-    T[:3, :3] = quat_xyzw_to_rotation(q_xyzw)
-    T[:3, 3] = np.asarray(position, dtype=np.float64)
-    return T

@@ -1,19 +1,18 @@
 """Rigid transforms: validation, quaternions (x y z w), composition, inversion, interpolation.
 
+Rotations go through SciPy's ``Rotation`` (the calibrator's compiled fit has its own, for its loops).
+
 Conventions: ``T_a_b`` is a (4, 4) homogeneous matrix mapping points in frame ``b`` into frame
 ``a``: ``p_a = T_a_b[:3, :3] @ p_b + T_a_b[:3, 3]``. Quaternions are ordered x y z w.
 """
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 from scipy.spatial.transform import Rotation, Slerp
 
 ORTHONORMAL_TOL = 1e-6
 QUAT_NORM_TOL = 1e-3
-SCIPY_FROM = 64  # matrix_to_quat_xyzw: SciPy's vectorised loop beyond this many matrices
 
 
 def as_transforms(T: np.ndarray, name: str = "T", tol: float = ORTHONORMAL_TOL) -> np.ndarray:
@@ -76,63 +75,17 @@ def quat_xyzw_to_matrix(q_xyzw: np.ndarray, normalize_tol: float = QUAT_NORM_TOL
         raise ValueError(
             f"quaternion {int(bad[0])} has norm {norms.ravel()[bad[0]]:.6f}, expected 1 (order is x y z w)"
         )
-    # SciPy's Rotation.from_quat(q).as_matrix(), term for term (the same bits), without its overhead
-    x, y, z, w = np.moveaxis(q / norms, -1, 0)
-    x2, y2, z2, w2 = x * x, y * y, z * z, w * w
-    xy, zw, xz, yw, yz, xw = x * y, z * w, x * z, y * w, y * z, x * w
-    R = np.stack([x2 - y2 - z2 + w2, 2 * (xy - zw), 2 * (xz + yw),
-                  2 * (xy + zw), -x2 + y2 - z2 + w2, 2 * (yz - xw),
-                  2 * (xz - yw), 2 * (yz + xw), -x2 - y2 + z2 + w2], axis=-1)  # fmt: skip
-    return R.reshape(*q.shape[:-1], 3, 3)
+    return np.asarray(Rotation.from_quat(q).as_matrix())
 
 
 def matrix_to_quat_xyzw(R: np.ndarray) -> np.ndarray:
-    """Quaternions (x y z w, w >= 0) from (3, 3) or (n, 3, 3) rotation matrices.
+    """Quaternions (x y z w, w >= 0) of (3, 3) or (n, 3, 3) rotation matrices: (4,) or (n, 4).
 
-    SciPy's ``Rotation.from_matrix`` method (the largest of the trace and the diagonal picks the
-    formula), written out per rotation (orthonormal within 1e-12, determinant +1): SciPy's dispatch
-    costs tens of microseconds a call. More than :data:`SCIPY_FROM` matrices, and matrices that are
-    no rotation, go through SciPy (which projects them onto the rotations or names what is wrong).
+    SciPy's ``Rotation.from_matrix``: a matrix that is not quite orthonormal is projected onto the
+    rotations; a reflection or a non-finite matrix raises ValueError.
     """
-    m = np.asarray(R, dtype=np.float64)
-    few = m.shape[-2:] == (3, 3) and (m.ndim == 2 or (m.ndim == 3 and m.shape[0] <= SCIPY_FROM))
-    rows = m.reshape(-1, 9).tolist() if few else []
-    quats = [_quat_of_rotation(*r) for r in rows]
-    if not rows or None in quats:
-        q = Rotation.from_matrix(m).as_quat()
-        return np.where(q[..., 3:4] < 0, -q, q)
-    return np.array(quats).reshape(*m.shape[:-2], 4)
-
-
-def _quat_of_rotation(
-    m00: float, m01: float, m02: float, m10: float, m11: float, m12: float, m20: float, m21: float, m22: float
-) -> tuple[float, float, float, float] | None:
-    """(x, y, z, w), w >= 0, of one rotation matrix given row by row; None when it is no rotation
-    (not finite, not orthonormal within 1e-12, or a reflection)."""
-    rows = ((m00, m01, m02), (m10, m11, m12), (m20, m21, m22))
-    for i in range(3):
-        for j in range(i, 3):
-            dot = rows[i][0] * rows[j][0] + rows[i][1] * rows[j][1] + rows[i][2] * rows[j][2]
-            if not abs(dot - (i == j)) <= 1e-12:  # also False for NaN
-                return None
-    det = m00 * (m11 * m22 - m12 * m21) - m01 * (m10 * m22 - m12 * m20) + m02 * (m10 * m21 - m11 * m20)
-    if det <= 0:
-        return None
-    trace = m00 + m11 + m22
-    decision = (m00, m11, m22, trace)
-    choice = decision.index(max(decision))
-    q = [0.0, 0.0, 0.0, 0.0]
-    if choice == 3:
-        q = [m21 - m12, m02 - m20, m10 - m01, 1 + trace]
-    else:
-        i, j, k = choice, (choice + 1) % 3, (choice + 2) % 3
-        q[i] = 1 - trace + 2 * rows[i][i]
-        q[j] = rows[j][i] + rows[i][j]
-        q[k] = rows[k][i] + rows[i][k]
-        q[3] = rows[k][j] - rows[j][k]
-    norm = math.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
-    sign = -1.0 if q[3] < 0 else 1.0
-    return (sign * q[0] / norm, sign * q[1] / norm, sign * q[2] / norm, sign * q[3] / norm)
+    q = Rotation.from_matrix(np.asarray(R, dtype=np.float64)).as_quat()
+    return np.where(q[..., 3:4] < 0, -q, q)
 
 
 def make_transform(translation: np.ndarray, q_xyzw: np.ndarray) -> np.ndarray:

@@ -1,7 +1,7 @@
 """Which calibration pose to visit next: the information each candidate view adds to the
 calibrator's model, and the camera's rotation on the flange from the table seen in two views.
 
-The model is the calibrator's (``sofia_calibrator.solver``): a sample i says
+The model is the calibrator's (``sofia_calibrator.fitting.solver``): a sample i says
 ``R_bf_i (R_fc p_cam_i + t_fc) + t_bf_i = p_base`` with camera-frame noise ``camera_sigma(p_cam_i)``.
 Parameters (9,): rotation perturbation theta (right, camera frame), t_fc (flange frame, m), p_base
 (base frame, m), the order of the calibrator's covariance.
@@ -12,8 +12,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from sofia_calibrator.noise import camera_sigma
-from sofia_calibrator.so3 import hat, project
+from sofia_calibrator.fitting.noise import camera_sigma
+from sofia_calibrator.fitting.so3 import hat, project
 from sofia_schemas.transforms import apply, invert
 
 # A weak prior keeps the information matrix invertible before there are enough samples:

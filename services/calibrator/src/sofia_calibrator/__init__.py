@@ -1,8 +1,6 @@
 """SofIA calibrator: point-based hand-eye calibration (``T_flange_cam``), library and online service."""
 
 from .any_target import calibrate_target
-from .calibrate import Calibration, calibrate
-from .diagnostics import LAB_SPREAD_LIMIT_MM, dissipation, map_to_base, spread
 from .errors import (
     BlobAmbiguous,
     BlobCutByEdge,
@@ -14,10 +12,12 @@ from .errors import (
     ParseError,
     TooFewSamples,
 )
-from .fit import Fit
+from .fitting.calibrate import Calibration, calibrate
+from .fitting.diagnostics import LAB_SPREAD_LIMIT_MM, dissipation, map_to_base, spread
+from .fitting.fit import Fit
+from .fitting.solver import Solution, solve
 from .formats import ros1_static_transform, ros2_static_transform, to_message, to_yaml
-from .lab_io import read_lab, read_poses, read_tfs
-from .solver import Solution, solve
+from .inputs.lab import read_lab, read_poses, read_tfs
 
 __all__ = [
     "LAB_SPREAD_LIMIT_MM", "BlobAmbiguous", "BlobCutByEdge", "BlobNoDepth", "BlobNotFound",

@@ -9,10 +9,10 @@ from typing import Any
 
 import numpy as np
 
-from . import diagnostics as dg
-from .calibrate import CHILD_FRAME, PARENT_FRAME, Calibration
 from .errors import InputMismatch
 from .eye_to_hand import BASE_FRAME, CAMERA_FRAME, SETUPS, calibrate_setup, flange_base_poses
+from .fitting import diagnostics as dg
+from .fitting.calibrate import CHILD_FRAME, PARENT_FRAME, Calibration
 from .targets.charuco import BoardSpec, board_poses
 from .targets.poses import DEFAULT_SIZE_M, PoseFit, fixed_target, hand_eye_from_poses, residuals
 from .targets.sphere import DEFAULT_INLIER_M, sphere_centres

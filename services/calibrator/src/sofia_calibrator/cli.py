@@ -4,7 +4,9 @@ from __future__ import annotations
 
 import argparse
 import json
+import logging
 import sys
+from importlib.metadata import entry_points
 from typing import Any
 
 import numpy as np
@@ -13,11 +15,16 @@ from sofia_runtime.zenoh_config import add_zenoh_args
 from sofia_schemas.keys import add_robot_arg
 from sofia_schemas.transforms import make_transform
 
-from .calibrate import CHILD_FRAME, PARENT_FRAME
 from .errors import InputMismatch
+from .fitting.calibrate import CHILD_FRAME, PARENT_FRAME
 from .inbox import QUERY_DEADLINE_S
-from .store import MAX_SAMPLES
+from .samples.store import MAX_SAMPLES
 
+log = logging.getLogger(__name__)
+
+# modes under `sofia calibrate` that other packages add (the arm's `auto`): each entry point is a
+# function called with the `calibrate` parser
+CALIBRATE_MODES = "sofia.calibrate_modes"
 GUESS_QUAT_TOL = 0.01  # a typed guess quaternion within 1 % of unit norm is normalised
 
 
@@ -55,12 +62,11 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     p.add_argument("--yaml", metavar="OUT", help="also write the result as YAML")
     p.add_argument("--plot", metavar="OUT.png", help="write the dissipation plot")
     p.set_defaults(func=run_calibrate)
-    try:  # `sofia calibrate auto`: the arm service calibrates by itself (needs sofia-arm)
-        from sofia_arm.autocal_cli import register_auto
-    except ImportError:
-        pass
-    else:
-        register_auto(p)
+    for ep in sorted(entry_points(group=CALIBRATE_MODES), key=lambda e: e.name):
+        try:
+            ep.load()(p)
+        except ImportError as e:  # a package whose optional dependencies are missing
+            log.debug("calibrate mode %s unavailable: %s", ep.name, e)
 
     c = sub.add_parser("calibrator", help="the calibrator service")
     cs = c.add_subparsers(dest="calibrator_cmd", required=True, metavar="ACTION")
@@ -137,7 +143,7 @@ def run_target(args: argparse.Namespace) -> object:
 
         T = read_euler_poses(args.euler_poses, args.euler_convention, args.length_unit)
     elif args.target == "sphere" and args.tfs:
-        from .lab_io import read_tfs
+        from .inputs.lab import read_tfs
 
         T = read_tfs(args.tfs)
     else:
@@ -165,11 +171,11 @@ def add_frame_args(p: argparse.ArgumentParser) -> None:
 
 def load_samples(args: argparse.Namespace) -> tuple[np.ndarray, np.ndarray]:
     """(p_cam, T_base_flange) from whichever source the arguments name."""
-    from .lab_io import read_lab, read_poses
-    from .samples_io import read_joints, read_samples
+    from .inputs.lab import read_lab, read_poses
+    from .inputs.sample_files import read_joints, read_samples
 
     if args.mcap:
-        from .mcap_input import read_mcap
+        from .inputs.mcap import read_mcap
 
         m = read_mcap(args.mcap, from_clouds=args.from_clouds)
         for r in m.rejected:
@@ -190,7 +196,7 @@ def load_samples(args: argparse.Namespace) -> tuple[np.ndarray, np.ndarray]:
 
 
 def run_calibrate(args: argparse.Namespace) -> int:
-    from .calibrate import calibrate
+    from .fitting.calibrate import calibrate
 
     if args.target != "blob" or args.setup != "eye-in-hand":
         return _report(run_target(args), args)

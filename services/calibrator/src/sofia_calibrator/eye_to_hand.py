@@ -15,8 +15,8 @@ from typing import Any
 import numpy as np
 from sofia_schemas.transforms import as_transforms
 
-from .calibrate import Calibration, calibrate
 from .errors import InputMismatch
+from .fitting.calibrate import Calibration, calibrate
 
 BASE_FRAME = "panda_link0"
 CAMERA_FRAME = "camera_link_optical"

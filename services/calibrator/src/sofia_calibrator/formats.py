@@ -10,24 +10,27 @@ from __future__ import annotations
 import numpy as np
 from sofia_schemas.messages import CalibrationResult, now_ns
 from sofia_schemas.messages.calibration import CalibrationSummary, CorrectionCandidate
+from sofia_schemas.transforms import matrix_to_quat_xyzw
 
-from .calibrate import CHILD_FRAME, PARENT_FRAME, Calibration
-from .correction import describe
-from .fit import Fit
+from .fitting.calibrate import CHILD_FRAME, PARENT_FRAME, Calibration
+from .fitting.correction import describe
+from .fitting.fit import Fit
 
 
 def _f(v: float) -> str:
     return f"{float(v):.6f}"
 
 
+def _pose7(T: np.ndarray) -> list[float]:
+    """x y z qx qy qz qw of a (4, 4) transform."""
+    return [*T[:3, 3], *matrix_to_quat_xyzw(T[:3, :3])]
+
+
 def ros1_static_transform(
     T_flange_cam: np.ndarray, parent: str = PARENT_FRAME, child: str = CHILD_FRAME
 ) -> str:
     """The lab launch file's line: ``static_transform_publisher x y z qx qy qz qw parent child 100``."""
-    from sofia_schemas.transforms import matrix_to_quat_xyzw
-
-    t, q = T_flange_cam[:3, 3], matrix_to_quat_xyzw(T_flange_cam[:3, :3])
-    args = " ".join(_f(v) for v in [*t, *q])
+    args = " ".join(_f(v) for v in _pose7(T_flange_cam))
     return (
         f'<node pkg="tf" type="static_transform_publisher" name="camera_optical_broadcaster" '
         f'args="{args} {parent} {child} 100" />'
@@ -38,11 +41,8 @@ def ros2_static_transform(
     T_flange_cam: np.ndarray, parent: str = PARENT_FRAME, child: str = CHILD_FRAME
 ) -> str:
     """``ros2 run tf2_ros static_transform_publisher --x .. --qw .. --frame-id parent --child-frame-id child``."""
-    from sofia_schemas.transforms import matrix_to_quat_xyzw
-
-    t, q = T_flange_cam[:3, 3], matrix_to_quat_xyzw(T_flange_cam[:3, :3])
     names = ("x", "y", "z", "qx", "qy", "qz", "qw")
-    args = " ".join(f"--{k} {_f(v)}" for k, v in zip(names, [*t, *q], strict=True))
+    args = " ".join(f"--{k} {_f(v)}" for k, v in zip(names, _pose7(T_flange_cam), strict=True))
     return f"ros2 run tf2_ros static_transform_publisher {args} --frame-id {parent} --child-frame-id {child}"
 
 

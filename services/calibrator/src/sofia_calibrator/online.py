@@ -16,11 +16,11 @@ from sofia_schemas.messages.calibration import (
 )
 from sofia_schemas.transforms import make_transform, matrix_to_quat_xyzw
 
-from .calibrate import CHILD_FRAME, PARENT_FRAME, calibrate
 from .errors import CalibrationError
+from .fitting.calibrate import CHILD_FRAME, PARENT_FRAME, calibrate
 from .formats import to_message
 from .pairing import NotPaired, PairingOptions, PoseBuffer
-from .store import SampleStore
+from .samples.store import SampleStore
 
 log = logging.getLogger("sofia.calibrator")
 PENDING_TIMEOUT_S = 2.0

@@ -13,8 +13,8 @@ from pathlib import Path
 import numpy as np
 from sofia_schemas.transforms import rotation_angle
 
-from .calibrate import Calibration
-from .diagnostics import LAB_SPREAD_LIMIT_MM
+from .fitting.calibrate import Calibration
+from .fitting.diagnostics import LAB_SPREAD_LIMIT_MM
 
 
 def plot_calibration(cal: Calibration, path: str | Path, title: str = "Hand-eye calibration") -> Path:

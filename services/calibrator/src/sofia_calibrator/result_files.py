@@ -6,9 +6,9 @@ from pathlib import Path
 
 from sofia_schemas.messages import CalibrationResult
 
-from .durable import write_atomic
 from .formats import to_yaml
-from .sample_errors import SaveFailed
+from .samples.durable import write_atomic
+from .samples.errors import SaveFailed
 
 
 def save_result(result: CalibrationResult, directory: Path) -> list[str]:

@@ -43,9 +43,9 @@ from .inbox import QUERY_DEADLINE_S, Inbox
 from .online import Calibrator
 from .pairing import PairingOptions
 from .result_files import save_result
-from .sample_checks import check_sample
-from .sample_errors import CalibratorBusy, CalibratorLate, SolveFailed
-from .store import SamplesPage, SampleStore
+from .samples.checks import check_sample
+from .samples.errors import CalibratorBusy, CalibratorLate, SolveFailed
+from .samples.store import SamplesPage, SampleStore
 
 log = logging.getLogger("sofia.calibrator")
 OPS = ("result", "add", "remove", "reset", "solve", "save", "samples")

@@ -1,4 +1,4 @@
-"""The fit's compiled loops (numba, see :mod:`sofia_calibrator.kernels`): the closed-form start,
+"""The fit's compiled loops (numba, see :mod:`sofia_calibrator.fitting.kernels`): the closed-form start,
 Levenberg-Marquardt and the Gauss-Newton steps of the correction models."""
 
 from __future__ import annotations
@@ -15,7 +15,7 @@ LOSS_CODES = {"linear": 0, "huber": 1, "cauchy": 2}
 
 @jit
 def linear_system(p_cam, R_base_flange, t_base_flange, w):  # type: ignore[no-untyped-def]
-    """The closed-form start's system (see :func:`sofia_calibrator.solver.linear_init`): A (3 n, 15)
+    """The closed-form start's system (see :func:`sofia_calibrator.fitting.solver.linear_init`): A (3 n, 15)
     and b (3 n,), rows weighted by sqrt(w); and, when 3 n >= 30, its solution through the normal
     equations of the column-equilibrated system: returns (A, b, x (15,), solved)."""
     n = p_cam.shape[0]
@@ -136,7 +136,7 @@ def _normal(J, w, r, H, g):  # type: ignore[no-untyped-def]
 
 @jit
 def levenberg_marquardt(p_cam, R_fl, t_fl, sigma, G, R, t, p_base, beta, loss, c, max_iter, tol):  # type: ignore[no-untyped-def]
-    """The iteration of :func:`sofia_calibrator.solver.refine` (see there for the model); loss: a
+    """The iteration of :func:`sofia_calibrator.fitting.solver.refine` (see there for the model); loss: a
     code of ``LOSS_CODES``. Returns (R, t, p_base, beta, cost, n_iter, JtJ, J, whitened, weights)."""
     n, k = p_cam.shape[0], G.shape[2]
     P = 9 + k
@@ -214,7 +214,7 @@ def levenberg_marquardt(p_cam, R_fl, t_fl, sigma, G, R, t, p_base, beta, loss, c
 @jit
 def gauss_newton_steps(J_ref, errors, sigma_ref, sigma, G, extra):  # type: ignore[no-untyped-def]
     """One Gauss-Newton step of each correction model from a reference optimum (see
-    :meth:`sofia_calibrator.fit.Problem.select`). J_ref: (3 m, >= 9) whitened Jacobian under the
+    :meth:`sofia_calibrator.fitting.fit.Problem.select`). J_ref: (3 m, >= 9) whitened Jacobian under the
     noise sigma_ref (m, 3); errors: (m, 3) residuals, metres; sigma: (m, 3) the noise now; G (m, 3,
     K): the models' correction columns side by side, extra[b] of them for model b. Returns, per
     model b: chi2 (nb,), dx (nb, 9) of (theta, t, p_base), beta (nb, kmax), cov9 (nb, 9, 9) and

@@ -14,8 +14,8 @@ from typing import Any
 
 from sofia_schemas.messages.calibration import CalibrationSample
 
-from .sample_checks import check_sample
-from .sample_log import Damaged, decode, keep_damaged, recover
+from .checks import check_sample
+from .log import Damaged, decode, keep_damaged, recover
 
 log = logging.getLogger(__name__)
 

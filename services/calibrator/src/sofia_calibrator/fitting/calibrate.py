@@ -9,11 +9,11 @@ import numpy as np
 from sofia_schemas.frames import CAMERA_FRAME, FLANGE_FRAME
 from sofia_schemas.transforms import ORTHONORMAL_TOL, as_points, as_transforms
 
+from ..errors import InputMismatch, TooFewSamples
 from . import correction as cc
 from . import diagnostics as dg
 from . import kernels
 from .advice import criterion_advice, noise_warning, redundancy_warning
-from .errors import InputMismatch, TooFewSamples
 from .fit import Fit, Problem, Selection
 from .influence import Influence, influence
 from .noise import ISOTROPIC_PRIOR_M, NoiseModel, camera_sigma
@@ -156,7 +156,7 @@ def calibrate(
 
     Outliers: the studentized leave-one-out test (F(3, dof - 3), family-wise false-alarm rate
     ``outlier_alpha``), worst first, under the chosen correction, among the gross errors of a
-    robust fit (:mod:`sofia_calibrator.screen`: heavy-tailed noise does not make outliers). exclude_outliers: the returned
+    robust fit (:mod:`sofia_calibrator.fitting.screen`: heavy-tailed noise does not make outliers). exclude_outliers: the returned
     fit leaves them out (``with_all_samples`` keeps the other fit); else it keeps them
     (``without_outliers``). The lab's 1 cm criterion never removes samples: when it fails and
     ``enforce_criterion``, ``criterion_advice`` names the fewest samples whose removal would meet it.

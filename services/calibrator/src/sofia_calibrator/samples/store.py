@@ -22,12 +22,12 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError
 from sofia_schemas.messages.calibration import CalibrationSample
 from sofia_schemas.transforms import make_transform
 
+from .checks import check_sample
+from .db import SampleDb
 from .durable import write_atomic
-from .sample_checks import check_sample
-from .sample_db import SampleDb
-from .sample_errors import ImplausibleSample, SampleLogError, TooManySamples, UnknownSamples
-from .sample_import import JsonlLog, short
-from .sample_log import Damaged
+from .errors import ImplausibleSample, SampleLogError, TooManySamples, UnknownSamples
+from .jsonl import JsonlLog, short
+from .log import Damaged
 
 log = logging.getLogger(__name__)
 DB_NAME = "samples.db"

@@ -11,8 +11,8 @@ import numpy as np
 from sofia_schemas import rosmsg
 from sofia_schemas.keys import TOPIC_BLOB, TOPIC_CAMERA_POINTS, TOPIC_FLANGE_POSE
 
-from .errors import CalibrationError, InputMismatch
-from .pairing import NotPaired, PairingOptions, PoseBuffer
+from ..errors import CalibrationError, InputMismatch
+from ..pairing import NotPaired, PairingOptions, PoseBuffer
 
 log = logging.getLogger(__name__)
 
@@ -45,7 +45,7 @@ def read_mcap(
         elif from_clouds:
             from sofia_schemas import pointcloud
 
-            from .blob import find_blob
+            from ..blob import find_blob
 
             cloud = pointcloud.decode(m.data)
             try:

@@ -1,12 +1,13 @@
 """Compiled building blocks (numba): small dense symmetric solves and the check of the poses.
 
 A calibration solves systems of 9-15 unknowns over tens of samples, where each numpy call costs
-more than its arithmetic: the loops here, in :mod:`sofia_calibrator.fit_kernels` and beside their
-expressions elsewhere (SO(3) in :mod:`~sofia_calibrator.so3`, the noise model, the hat matrix, the
+more than its arithmetic: the loops here, in :mod:`sofia_calibrator.fitting.fit_kernels` and beside their
+expressions elsewhere (SO(3) in :mod:`~sofia_calibrator.fitting.so3`, the noise model, the hat matrix, the
 flange motion) run without returning to Python, and without LAPACK (quick to compile). They are
 compiled for C-contiguous, writeable float64 arrays (:func:`c_array` makes them so), cached beside
 the sources (``cache=True``; ``~/.cache/numba`` when that is read-only) and compiled ahead of the
-first calibration by :func:`warm_kernels` (``scripts/install.sh``, the calibrator's image).
+first calibration by :func:`sofia_calibrator.fitting.warm.warm_kernels` (``scripts/install.sh``,
+the calibrator's image).
 """
 
 from __future__ import annotations
@@ -24,23 +25,6 @@ def c_array(a: np.ndarray) -> np.ndarray:
     """``a`` as the kernels are compiled for: C-contiguous, writeable float64 (copied when not)."""
     a = np.ascontiguousarray(a, dtype=np.float64)
     return a if a.flags.writeable else a.copy()
-
-
-def warm_kernels() -> None:
-    """Compile every kernel (or load it from numba's cache) on small synthetic problems, so that
-    the first calibration does not wait for it: the default calibration, a robust one, the
-    multi-start of a 4-sample set, and the SO(3) helpers."""
-    from .calibrate import calibrate
-    from .simulate import make_problem
-    from .so3 import exp, log
-
-    rng = np.random.default_rng(0)
-    pr = make_problem(12, rng, robot_noise_m=0.001, depth_scale=0.97)
-    calibrate(pr.p_cam, pr.T_base_flange)
-    calibrate(pr.p_cam, pr.T_base_flange, loss="huber", guess=pr.T_flange_cam)
-    few = make_problem(4, rng)
-    calibrate(few.p_cam, few.T_base_flange)
-    log(exp(np.array([0.1, 0.2, 0.3])))
 
 
 @jit

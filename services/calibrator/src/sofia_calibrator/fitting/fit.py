@@ -131,7 +131,7 @@ class Problem:
         The reference (rigid) fit gives the residuals the noise level is estimated from; under that
         noise every model's chi-square comes from one Gauss-Newton step from the reference optimum
         (exact for a linear model; the corrections are linear in their unknowns), the F-test
-        (:func:`sofia_calibrator.correction.choose`) picks one, and only that one is refined.
+        (:func:`sofia_calibrator.fitting.correction.choose`) picks one, and only that one is refined.
         """
         m = len(idx)
         sigma0 = self.noise.sigma(idx)

@@ -7,8 +7,8 @@ import math
 
 import numpy as np
 
+from ..errors import DegenerateMotion
 from . import kernels, so3
-from .errors import DegenerateMotion
 from .kernels import jit, sym_eig
 from .so3 import log_so3
 

@@ -64,7 +64,7 @@ def make_problem(
     depth_scale: float = 1.0,
     scale_model: str = "depth_scale",
 ) -> Problem:
-    """A problem of ``n`` views with D435-like noise (:mod:`sofia_calibrator.noise`) times ``noise_scale``.
+    """A problem of ``n`` views with D435-like noise (:mod:`sofia_calibrator.fitting.noise`) times ``noise_scale``.
 
     Beyond the camera noise: the reported flange poses are off by isotropic ``robot_noise_m``
     (metres, per axis) and ``robot_noise_deg`` (per axis, about the flange axes), and the camera's

@@ -7,7 +7,7 @@ import math
 from sofia_schemas.messages.calibration import CalibrationSample
 from sofia_schemas.transforms import QUAT_NORM_TOL
 
-from .sample_errors import ImplausibleSample
+from .errors import ImplausibleSample
 
 FLANGE_MAX_M = 5.0  # |T_base_flange translation|: the Panda reaches 0.855 m; 5 m allows other arms
 BLOB_MAX_M = 10.0  # |p_cam|: the D435 sees depth to about 10 m

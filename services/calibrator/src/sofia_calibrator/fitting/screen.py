@@ -1,6 +1,6 @@
 """Which samples may be called outliers: a robust screen before the leave-one-out test.
 
-The studentized leave-one-out test (:mod:`sofia_calibrator.influence`) assumes Gaussian noise of
+The studentized leave-one-out test (:mod:`sofia_calibrator.fitting.influence`) assumes Gaussian noise of
 the model's shape. Real noise has heavier tails and another shape (depth noise larger than the
 model's), and then good samples fail that test: 51 % of sets at n = 50 under Student-t(3) noise,
 25 % with the depth noise 3x the model. A sample may only be removed when it is also a gross

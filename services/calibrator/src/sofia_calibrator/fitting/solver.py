@@ -14,6 +14,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from . import correction, so3
 from . import fit_kernels as fk
@@ -39,7 +40,7 @@ class Solution:
     JtJ: np.ndarray  # (9 + k, 9 + k) Gauss-Newton information matrix, params (theta, t, p_base, beta)
     errors: np.ndarray  # (n, 3) predicted minus corrected measured blob, camera frame, metres
     weights: np.ndarray  # (n,) robust weights of the samples at the solution (1 = full weight)
-    model: str = "rigid"  # camera-correction model (see :mod:`sofia_calibrator.correction`)
+    model: str = "rigid"  # camera-correction model (see :mod:`sofia_calibrator.fitting.correction`)
     beta: np.ndarray = field(default_factory=lambda: np.zeros(0))  # (k,) correction unknowns
     J: np.ndarray | None = None  # (3 n, 9 + k) whitened Jacobian at the solution
     whitened: np.ndarray | None = None  # (n, 3) whitened residuals (errors / sigma)
@@ -87,10 +88,10 @@ def refine(
 
     Residual (camera frame) f_i = R^T (R_i^T (p_base - t_i) - t) - (p_cam_i + G_i beta) =: u_i - c_i
     with df/dtheta = [u_i]x, df/dt = -R^T, df/dp_base = R^T R_i^T, df/dbeta = -G_i (the camera
-    correction of ``model``, :mod:`sofia_calibrator.correction`). sigma: (n, 3) per-axis camera-frame
+    correction of ``model``, :mod:`sofia_calibrator.fitting.correction`). sigma: (n, 3) per-axis camera-frame
     noise, metres (whitening); loss: "linear", "huber" or "cauchy" with ``loss_scale`` in sigma
     units (robust loss by iteratively reweighting samples). The iteration runs compiled
-    (:func:`sofia_calibrator.fit_kernels.levenberg_marquardt`).
+    (:func:`sofia_calibrator.fitting.fit_kernels.levenberg_marquardt`).
     """
     G = correction.columns(model, p_cam)
     k = G.shape[2]
@@ -173,19 +174,8 @@ def start_target(
 
 
 def cube_rotations() -> np.ndarray:
-    """(24, 3, 3) the rotations of the cube: well-spread starting rotations."""
+    """(24, 3, 3) the rotations of the cube (SciPy's octahedral group): well-spread starting rotations."""
     return _CUBE.copy()
 
 
-def _cube() -> np.ndarray:
-    perms = [(0, 1, 2), (1, 2, 0), (2, 0, 1), (1, 0, 2), (0, 2, 1), (2, 1, 0)]
-    out = []
-    for perm in perms:
-        for signs in np.array(np.meshgrid([1, -1], [1, -1], [1, -1])).T.reshape(-1, 3):
-            M = np.eye(3)[list(perm)] * signs[:, None]
-            if np.linalg.det(M) > 0:
-                out.append(M)
-    return np.array(out)
-
-
-_CUBE = _cube()
+_CUBE = Rotation.create_group("O").as_matrix().round()  # entries exactly 0 and +-1

@@ -2,7 +2,7 @@
 
 CSV: a header row naming the columns, one sample per row. Blob: ``px, py, pz`` (camera optical
 frame, metres). Flange pose: either ``tx, ty, tz, qx, qy, qz, qw`` (base frame, quaternion x y z w)
-or ``q1 .. q7`` (Panda joint positions, radians, through :func:`panda_fk`).
+or ``q1 .. q7`` (Panda joint positions, radians, through :func:`sofia_schemas.kinematics.panda_fk`).
 
 JSON: a list of objects (or ``{"samples": [...]}``) each with ``p_cam`` and either ``translation`` +
 ``rotation_xyzw`` (the CalibrationSample fields) or ``q`` (7 joint positions).
@@ -16,10 +16,11 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from sofia_schemas.kinematics import panda_fk
 from sofia_schemas.transforms import make_transform
 
-from .errors import ParseError
-from .fk import panda_fk
+from ..errors import ParseError
+from .lab import number_lines
 
 POSE_COLUMNS = ("tx", "ty", "tz", "qx", "qy", "qz", "qw")
 JOINT_COLUMNS = tuple(f"q{i}" for i in range(1, 8))
@@ -111,17 +112,8 @@ def read_json(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
 
 def read_joints(path: str | Path) -> np.ndarray:
     """T_base_flange (n, 4, 4) from a file of Panda joint positions: 7 numbers per line, radians."""
-    path = Path(path)
-    rows = []
-    for i, line in enumerate(path.read_text().splitlines(), start=1):
-        s = line.strip()
-        if not s or s.startswith("#"):
-            continue
-        parts = s.replace(",", " ").split()
-        rows.append(_floats(path, i, parts, 7, "joint positions q1..q7"))
-    if not rows:
-        raise ParseError(path, None, "no joint positions (the file is empty)")
-    return _joints(path, np.array(rows))
+    names = tuple(f"joint q{k}" for k in range(1, 8))
+    return _joints(Path(path), number_lines(Path(path), names, "q1..q7", "joint positions"))
 
 
 def read_samples(path: str | Path) -> tuple[np.ndarray, np.ndarray]:

@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 from sofia_schemas.transforms import make_transform
 
-from .errors import InputMismatch, ParseError
+from ..errors import InputMismatch, ParseError
 
 _FIELD = re.compile(r"^\s*([xyzw])\s*:\s*(\S+)\s*$")
 _SECTIONS = ("translation", "rotation")
@@ -27,17 +27,24 @@ def _float(path: Path, line_no: int, text: str, what: str) -> float:
 
 def read_poses(path: str | Path) -> np.ndarray:
     """Blob positions from ``poses.txt``: one ``x,y,z`` line per sample. Returns (n, 3) metres."""
-    path = Path(path)
+    return number_lines(Path(path), ("blob x", "blob y", "blob z"), "x,y,z", "samples")
+
+
+def number_lines(path: Path, names: tuple[str, ...], columns: str, what: str) -> np.ndarray:
+    """(n, len(names)) numbers of a text file, one row a line (commas or spaces between them; blank
+    and ``#`` lines skipped). ParseError naming the line and the value that is wrong."""
     rows = []
     for i, line in enumerate(path.read_text().splitlines(), start=1):
         if not line.strip() or line.lstrip().startswith("#"):
             continue
         parts = [p for p in re.split(r"[,\s]+", line.strip()) if p]
-        if len(parts) != 3:
-            raise ParseError(path, i, f"expected 3 comma-separated values x,y,z, got {len(parts)}: {line!r}")
-        rows.append([_float(path, i, p, f"blob {'xyz'[k]}") for k, p in enumerate(parts)])
+        if len(parts) != len(names):
+            raise ParseError(
+                path, i, f"expected {len(names)} comma-separated values {columns}, got {len(parts)}: {line!r}"
+            )
+        rows.append([_float(path, i, p, name) for p, name in zip(parts, names, strict=True)])
     if not rows:
-        raise ParseError(path, None, "no samples (the file is empty)")
+        raise ParseError(path, None, f"no {what} (the file is empty)")
     return np.array(rows)
 
 

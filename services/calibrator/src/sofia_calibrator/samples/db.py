@@ -20,7 +20,7 @@ from pathlib import Path
 from typing import TypeVar
 
 from .durable import fsync_dir
-from .sample_errors import SampleLogError
+from .errors import SampleLogError
 
 T = TypeVar("T")
 log = logging.getLogger(__name__)

@@ -1,0 +1,1 @@
+"""The online service's samples: checks, the SQLite database, the JSONL log of older versions, the store."""

@@ -98,17 +98,17 @@ class BusEye:
 
 class BusCalibrator:
     """The calibrator service through its queryables (``reset``, ``add``, ``solve``); ``setup``
-    eye-to-hand asks it for ``T_base_cam`` (the solve's options, kept by the service)."""
+    (sent with the reset and each solve, kept by the service) picks ``T_flange_cam`` or
+    ``T_base_cam``."""
 
     def __init__(self, session: zenoh.Session, keys: Keys, timeout_s: float = 10.0,
                  setup: str = "eye-in-hand") -> None:  # fmt: skip
         self.session, self.keys, self.timeout_s = session, keys, timeout_s
-        self.options = (
-            b"" if setup == "eye-in-hand" else CalibrationSolveOptions(setup=setup).model_dump_json()
-        )  # type: ignore[arg-type]
+        self.options = CalibrationSolveOptions(setup=setup).model_dump_json()  # type: ignore[arg-type]
 
     def reset(self) -> None:
-        ask(self.session, self.keys.calibrator_op("reset"), CalibrationSamples, b"", self.timeout_s)
+        # the set-up goes with the reset: the service's own solves in between use it too
+        ask(self.session, self.keys.calibrator_op("reset"), CalibrationSamples, self.options, self.timeout_s)
 
     def add(self, stamp_ns: int, p_cam: np.ndarray, T_base_flange: np.ndarray, confidence: float) -> None:
         payload = sample(stamp_ns, p_cam, T_base_flange, confidence).model_dump_json()

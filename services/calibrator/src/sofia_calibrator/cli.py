@@ -67,6 +67,14 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     s = cs.add_parser("serve", help="run the online calibrator service on Zenoh")
     s.add_argument("--state-dir", default="./var/calibrator", help="sample database and saved results")
     s.add_argument("--from-clouds", action="store_true", help="also extract the blob from camera clouds")
+    s.add_argument("--cloud-target", choices=("blob", "ball"), default="blob",
+                   help="with --from-clouds: the blob on the sheet, or a coloured ball (default blob)")  # fmt: skip
+    s.add_argument(
+        "--ball-radius", type=float, metavar="M", help="the ball's radius, metres (default: fitted)"
+    )
+    s.add_argument("--setup", choices=("eye-in-hand", "eye-to-hand"), default="eye-in-hand",
+                   help="solve T_flange_cam (eye-in-hand) or T_base_cam (eye-to-hand: the target on the "
+                   "flange); a solve query's options may change it (default eye-in-hand)")  # fmt: skip
     s.add_argument("--tolerance-ms", type=float, default=50.0, help="pose/blob stamp gap, ms")
     s.add_argument("--min-samples", type=int, default=3, help="samples before the first solve")
     s.add_argument("--max-samples", type=int, default=MAX_SAMPLES,

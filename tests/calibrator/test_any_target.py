@@ -71,9 +71,9 @@ def test_robot_world_hand_eye_starts_and_baselines_recover_exact_poses() -> None
     assert {"RW_SHAH", "RW_LI", "TSAI"} <= set(fit.baselines)
 
 
-def test_unknown_and_planned_targets_say_so() -> None:
+def test_unknown_targets_and_missing_inputs_say_so() -> None:
     pr = make_problem(6, np.random.default_rng(23))
-    with pytest.raises(InputMismatch, match="not available yet"):
+    with pytest.raises(InputMismatch, match="'apriltag' needs images"):
         calibrate_target("apriltag", T_base_flange=pr.T_base_flange)
     with pytest.raises(InputMismatch, match="needs images"):
         calibrate_target("charuco", T_base_flange=pr.T_base_flange)

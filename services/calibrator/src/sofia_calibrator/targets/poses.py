@@ -86,7 +86,7 @@ def opencv_hand_eye(A: np.ndarray, B: np.ndarray) -> dict[str, np.ndarray]:
         T_cam_flange = np.eye(4)
         T_cam_flange[:3, :3], T_cam_flange[:3, 3] = R, np.ravel(t)
         if np.isfinite(T_cam_flange).all() and abs(np.linalg.det(R) - 1.0) < 1e-3:
-            out[f"RW_{name}"] = np.linalg.inv(T_cam_flange)
+            out[f"RW_{name}"] = np.asarray(np.linalg.inv(T_cam_flange), dtype=np.float64)
     return out
 
 

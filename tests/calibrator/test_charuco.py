@@ -84,3 +84,34 @@ def test_the_command_calibrates_a_charuco_board(tmp_path: Path) -> None:
     bad = subprocess.run([*base, "--images", *names, "--board-dict", "DICT_9X9"], capture_output=True, text=True,
                          timeout=120)  # fmt: skip
     assert bad.returncode != 0 and "not an OpenCV ArUco dictionary" in bad.stderr
+
+
+def _clouds(B: np.ndarray, rng: np.random.Generator) -> list[np.ndarray]:
+    """Organized (480, 640, 3) clouds of the board planes T_cam_board B (n, 4, 4) through K, with the
+    D435 model's depth noise (camera frame, metres)."""
+    from sofia_calibrator.noise import camera_sigma
+
+    v, u = np.mgrid[0:480, 0:640]
+    rays = np.stack([(u - K[0, 2]) / K[0, 0], (v - K[1, 2]) / K[1, 1], np.ones(u.shape)], axis=-1)
+    out = []
+    for b in B:
+        p = rays * ((b[:3, 2] @ b[:3, 3]) / (rays @ b[:3, 2]))[..., None]
+        p[..., 2] += rng.standard_normal(u.shape) * camera_sigma(p.reshape(-1, 3))[:, 2].reshape(u.shape)
+        out.append(p)
+    return out
+
+
+def test_corners_with_depth_beat_the_board_poses_alone() -> None:
+    rng = np.random.default_rng(5)
+    poses, points, sigma = [], [], []
+    for seed in range(4):
+        X, A, B, images = _views(8, 50 + seed)
+        by_pose = calibrate_target("charuco", T_base_flange=A, images=images, K=K)
+        cal = calibrate_target("charuco", T_base_flange=A, images=images, K=K, clouds_cam=_clouds(B, rng))
+        poses.append(np.linalg.norm(error6(by_pose.T_flange_cam, X)[:3]))
+        points.append(np.linalg.norm(error6(cal.T_flange_cam, X)[:3]))
+        sigma.append(cal.std_translation_mm)
+        assert "then the corners with depth" in cal.correction_reason
+    rms = [1e3 * float(np.sqrt(np.mean(np.square(e)))) for e in (poses, points)]
+    assert rms[1] < 0.8 * rms[0] and rms[1] < 1.0, rms  # 8 views at 0.4-0.6 m
+    assert 0.02 < np.mean(sigma) < 1.0, sigma  # a 1-sigma of the corners' scale, not of the poses'

@@ -14,6 +14,7 @@ from .calibrate import CHILD_FRAME, PARENT_FRAME, Calibration
 from .errors import InputMismatch
 from .eye_to_hand import BASE_FRAME, CAMERA_FRAME, SETUPS, calibrate_setup, flange_base_poses
 from .targets.apriltag import TagSpec, tag_poses
+from .targets.board_points import board_points_fit, corner_points
 from .targets.charuco import BoardSpec, board_poses
 from .targets.poses import DEFAULT_SIZE_M, PoseFit, fixed_target, hand_eye_from_poses, residuals
 from .targets.sphere import DEFAULT_INLIER_M, sphere_centres
@@ -53,7 +54,8 @@ def calibrate_target(
     fitted) found in each; "poses": T_cam_target (n, 4, 4) measured target poses (``size_m``: the
     target's size, weighting a rotation in the first pass); "charuco": grey images (h, w) uint8, the
     camera matrix K (3, 3) and the ``board`` (:class:`BoardSpec`), each view's board pose by PnP
-    on its ChArUco corners, then as "poses"; "apriltag": the same with the ``tag``
+    on its ChArUco corners, then as "poses" (with ``clouds_cam``, organized (h, w, 3) clouds
+    registered to the images: refined on every corner's 3D point, :mod:`.targets.board_points`); "apriltag": the same with the ``tag``
     (:class:`TagSpec`), each view's tag pose by PnP on its four corners. setup: "eye-in-hand" (result
     T_flange_cam) or "eye-to-hand" (result T_base_cam). options: those of :func:`calibrate` (for
     points). Returns a :class:`Calibration` with the set-up's frames unless given.
@@ -73,8 +75,13 @@ def calibrate_target(
             raise InputMismatch(
                 "target 'charuco' needs images (one per flange pose) and K, the camera matrix"
             )
-        T_cam_target = board_poses(images, K, board or BoardSpec())
-        size_m = max((board or BoardSpec()).size_m)
+        spec = board or BoardSpec()
+        T_cam_target = board_poses(images, K, spec)
+        size_m = max(spec.size_m)
+        if clouds_cam is not None:  # the corners with depth refine the board poses' fit
+            start = hand_eye_from_poses(T_base_flange, T_cam_target, size_m, setup)
+            fit = board_points_fit(T_base_flange, corner_points(images, clouds_cam, spec), start, spec, setup)
+            return pose_calibration(fit, T_base_flange, T_cam_target, setup, parent, child)
         target = "poses"
     if target == "apriltag":
         if images is None or K is None:

@@ -46,6 +46,8 @@ D435_K = np.array([[615.0, 0.0, 319.5], [0.0, 615.0, 239.5], [0.0, 0.0, 1.0]])
 class Autocal(Looker):
     """One autonomous calibration run (:meth:`run`)."""
 
+    TARGET = "blob"  # what the views show, as the progress lines name it
+
     def __init__(self, arm: ArmMotion, eye: Eye, cal: CalibratorLink, opts: AutocalOptions,
                  progress: Progress, reach: Reach | None = None, K: np.ndarray = D435_K,
                  image_size: tuple[int, int] = (640, 480)) -> None:  # fmt: skip
@@ -129,7 +131,7 @@ class Autocal(Looker):
         try:
             p_cam, confidence, text = self.observe(frame)
         except CalibrationError as e:
-            return False, f"not seen: {e}"
+            return False, f"no {self.TARGET}: {e}"
         self.cal.add(frame.stamp_ns, p_cam, T_bf, confidence)
         self.samples_T.append(T_bf)
         self.samples_p.append(p_cam)
@@ -223,6 +225,9 @@ class FixedAutocal(Autocal):
     """Eye-to-hand: a fixed camera, a ball on the flange (:mod:`sofia_arm.autocal_fixed`).
     ``T_fc`` holds T_base_cam and ``p_base`` the ball's centre in the flange frame."""
 
+    TARGET = "ball"
+    R_start: np.ndarray | None = None  # (3, 3) the flange's orientation at the start (base frame)
+
     def model_poses(self, T_base_flange: np.ndarray) -> np.ndarray:
         return fixed.inverse_poses(T_base_flange)
 
@@ -262,7 +267,7 @@ class FixedAutocal(Autocal):
 
     def candidates(self, first: bool) -> np.ndarray:
         assert self.T_fc is not None and self.p_base is not None
-        R_start = getattr(self, "R_start", self.arm.T_base_flange()[:3, :3])
+        R_start = self.arm.T_base_flange()[:3, :3] if self.R_start is None else self.R_start
         return fixed.fixed_candidates(self.T_fc, self.p_base, R_start, self.reach, self.opts.distance_m,
                                       self.K, self.image_size, self.opts.margin_px)  # fmt: skip
 

@@ -66,7 +66,7 @@ def _add_sim_args(p: argparse.ArgumentParser) -> None:
     )
     g.add_argument("--sim-board", type=Path, metavar="FILE", help="board YAML/JSON (default: the package's)")
     g.add_argument("--sim-world", type=Path, metavar="FILE",
-                   help="board scene: the world file shared with the arm and the gripper emulator, written "
+                   help="board and eye-to-hand scenes: the world file shared with the arm and the gripper emulator, written "
                         "here when missing (default: $SOFIA_SIM_WORLD); objects are rendered where it says")  # fmt: skip
     g.add_argument(
         "--sim-noise",

@@ -42,6 +42,7 @@ def test_eye_to_hand_autocal_finds_the_fixed_camera_and_the_ball(T_base_cam: np.
     assert out.result.parent_frame == "panda_link0"  # T_base_cam, not T_flange_cam
     assert "below 1.0 mm" in out.stop_reason and out.poses <= run.opts.max_poses
     assert any(p.name == "find camera" and p.status == "done" for p in run.progress.phases)
+    assert any(p.name == "find ball" and p.reason.startswith("ball at") for p in run.progress.phases)
 
 
 def test_the_rough_start_recovers_camera_and_ball_from_exact_views() -> None:

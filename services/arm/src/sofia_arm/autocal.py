@@ -254,9 +254,11 @@ class FixedAutocal(Autocal):
             raise AutocalError(
                 "find ball", f"the fixed camera does not see the ball at the start pose ({text})"
             )
+        self.progress.add("find ball", "done", text)
         for name, T in fixed.start_moves(T_start):
             if self._go(T, name):
-                self.progress.add(name, "done" if self.take(name)[0] else "failed")
+                ok, text = self.take(name)
+                self.progress.add(name, "done" if ok else "failed", text)
         rough = fixed.rough_fixed(np.array(self.samples_T), np.array(self.samples_p))
         if rough is None:
             raise AutocalError("find camera", f"the ball was seen in {len(self.samples_T)} start views, too few "

@@ -1,15 +1,19 @@
 """Autonomous calibration in the simulated cell: franky-sim behind the arm service, the simulated
 D435 rendering the blob sheet from the live flange pose through a true T_flange_cam of an unusual
-rotation, the calibrator service, and ``sofia calibrate auto`` printing the progress."""
+rotation (or, eye-to-hand, a ball on the flange from a fixed mount), the calibrator service, and
+``sofia calibrate auto`` printing the progress."""
 
 from __future__ import annotations
 
+import json
 import subprocess
 from collections.abc import Callable
+from pathlib import Path
 
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
+from sofia_schemas.sim_world import read_world
 from sofia_schemas.transforms import rotation_angle
 
 from ..conftest import SOFIA, Proc
@@ -32,8 +36,6 @@ def test_sofia_calibrate_auto_finds_a_sideways_camera(sofia_proc: Callable[..., 
     env = {"SOFIA_ROBOT": robot_id, "PATH": "/usr/bin:/bin"}
     out = subprocess.run([SOFIA, "calibrate", "auto", "--speed", "1.0", "--json"], capture_output=True, text=True,
                          timeout=600, env=env)  # fmt: skip
-    import json
-
     res = json.loads(out.stdout.strip().splitlines()[-1])
     assert out.returncode == 0, (out.stderr, res["reason"], [p["reason"] for p in res["phases"]])
     T_est = np.array(res["details"]["result"]["matrix"])
@@ -41,3 +43,34 @@ def test_sofia_calibrate_auto_finds_a_sideways_camera(sofia_proc: Callable[..., 
     err_deg = float(np.degrees(rotation_angle(T_est[:3, :3].T @ T_true[:3, :3])))
     assert err_mm < 1.0 and err_deg < 0.2, (err_mm, err_deg)
     assert res["details"]["samples"] <= 20
+
+
+@pytest.mark.slow
+@pytest.mark.timeout(900)
+def test_sofia_calibrate_auto_eye_to_hand_finds_the_fixed_camera(
+    sofia_proc: Callable[..., Proc], robot_id: str, tmp_path: Path
+) -> None:
+    """A fixed simulated camera (mount and ball in the shared world file), a ball on the flange:
+    the arm finds the camera, plans views of the ball, the calibrator solves T_base_cam live."""
+    world = tmp_path / "world.json"
+    ball = ["--sim-ball", "0.015", "-0.01", "0.11", "0.025"]
+    truth = sim_truth("--sim-scene", "eye-to-hand", *ball)
+    T_true = np.array(truth["T_base_cam"])
+    env = {"SOFIA_SIM_WORLD": str(world)}
+    arm = sofia_proc("arm", "serve", "--sim", "--max-speed", "1.0", env=env)
+    sofia_proc("camera", "serve", "--sim", "--sim-scene", "eye-to-hand", *ball, env=env)
+    sofia_proc("calibrator", "serve", "--state-dir", str(tmp_path / "calibrator"))
+    arm.wait_for_log("connected to the robot", 120)
+    assert read_world(world) is not None and read_world(world).flange_ball is not None  # type: ignore[union-attr]
+    out = subprocess.run([SOFIA, "calibrate", "auto", "--setup", "eye-to-hand", "--ball-radius", "0.025",
+                          "--speed", "1.0", "--json"], capture_output=True, text=True, timeout=600,
+                         env={"SOFIA_ROBOT": robot_id, "PATH": "/usr/bin:/bin"})  # fmt: skip
+    res = json.loads(out.stdout.strip().splitlines()[-1])
+    assert out.returncode == 0, (out.stderr, res["reason"], [p["reason"] for p in res["phases"]])
+    r = res["details"]["result"]
+    T_est = np.array(r["matrix"])
+    err_mm = 1e3 * np.linalg.norm(T_est[:3, 3] - T_true[:3, 3])
+    err_deg = float(np.degrees(rotation_angle(T_est[:3, :3].T @ T_true[:3, :3])))
+    assert err_mm < 1.0 and err_deg < 0.2, (err_mm, err_deg, [p["reason"] for p in res["phases"]])
+    assert 1e3 * np.linalg.norm(np.array(r["target_base"]) - [0.015, -0.01, 0.11]) < 1.0
+    assert r["parent_frame"] == "panda_link0" and res["details"]["samples"] <= 20

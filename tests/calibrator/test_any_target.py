@@ -55,9 +55,25 @@ def test_pose_targets_give_the_same_message() -> None:
     assert "parent_frame: panda_link0" in text and "pose target" in text and "passes: true" in text
 
 
-def test_unknown_and_planned_targets_say_so() -> None:
+def test_robot_world_hand_eye_starts_and_baselines_recover_exact_poses() -> None:
+    from sofia_calibrator.targets.poses import hand_eye_from_poses, opencv_hand_eye
+
+    rng = np.random.default_rng(23)
+    pr = make_eye_to_hand(10, rng, noise_scale=0.0)
+    T_flange_target = np.eye(4)
+    T_flange_target[:3, 3] = pr.p_flange
+    T_cam_target = np.linalg.inv(pr.T_base_cam) @ pr.T_base_flange @ T_flange_target
+    A = np.linalg.inv(pr.T_base_flange)  # eye-to-hand: the eye-in-hand problem of the inverted poses
+    base = opencv_hand_eye(A, T_cam_target)
+    for name in ("RW_SHAH", "RW_LI"):  # calibrateRobotWorldHandEye, with the target as its world
+        np.testing.assert_allclose(base[name], pr.T_base_cam, atol=1e-6, err_msg=name)
+    fit = hand_eye_from_poses(pr.T_base_flange, T_cam_target, setup="eye-to-hand")
+    assert {"RW_SHAH", "RW_LI", "TSAI"} <= set(fit.baselines)
+
+
+def test_unknown_targets_and_missing_inputs_say_so() -> None:
     pr = make_problem(6, np.random.default_rng(23))
-    with pytest.raises(InputMismatch, match="not available yet"):
+    with pytest.raises(InputMismatch, match="'apriltag' needs images"):
         calibrate_target("apriltag", T_base_flange=pr.T_base_flange)
     with pytest.raises(InputMismatch, match="needs images"):
         calibrate_target("charuco", T_base_flange=pr.T_base_flange)

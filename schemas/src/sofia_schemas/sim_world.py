@@ -8,6 +8,10 @@ the width of the object between them. Writes replace the file atomically; reader
 its modification time changes. The file's path comes from the ``SOFIA_SIM_WORLD`` environment
 variable (or the services' ``--sim-world`` option, which sets it).
 
+For eye-to-hand calibration the world may also hold a fixed camera mount (``T_base_cam``: the
+camera then renders from there, not from the flange) and a ball on the flange (``flange_ball``:
+rendered where the flange pose of each frame puts it).
+
 Frames: base = ``panda_link0``; ``T_base_obj`` (4, 4) puts the object's centre at its origin,
 its length, width and height along its x, y and z axes; metres.
 """
@@ -44,6 +48,20 @@ class WorldObject(BaseModel):
         return self.pose()[:3, 3]
 
 
+class FlangeBall(BaseModel):
+    """A calibration ball fixed on the flange: its centre in the flange frame (m), radius, colour."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    p_flange: tuple[float, float, float]
+    radius_m: float
+    colour: tuple[int, int, int] = (220, 90, 20)
+
+    def centre_base(self, T_base_flange: np.ndarray) -> np.ndarray:
+        """(3,) the ball's centre in the base frame at flange pose T_base_flange (4, 4)."""
+        return np.asarray(T_base_flange[:3, :3] @ np.array(self.p_flange) + T_base_flange[:3, 3])
+
+
 class WorldState(BaseModel):
     """The objects, the surface they rest on and what is between the fingers."""
 
@@ -54,6 +72,8 @@ class WorldState(BaseModel):
     between_fingers: int | None = None  # id of the object between the fingertips
     between_width_mm: float | None = None  # its width across the fingers
     version: int = 0
+    T_base_cam: list[list[float]] | None = None  # a fixed camera's colour optical frame (eye-to-hand)
+    flange_ball: FlangeBall | None = None  # a ball on the flange (eye-to-hand calibration target)
 
 
 def world_path() -> Path | None:

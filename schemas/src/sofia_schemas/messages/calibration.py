@@ -169,6 +169,8 @@ class CalibrationSolveOptions(Message):
     correction: str = "auto"  # auto (chosen by an F-test) | rigid | depth_scale | ray_scale
     exclude_outliers: bool = True
     guess: tuple[float, float, float, float, float, float, float] | None = None  # x y z qx qy qz qw
+    # eye-in-hand (T_flange_cam, target in the base frame) | eye-to-hand (T_base_cam, target on the flange)
+    setup: Literal["eye-in-hand", "eye-to-hand"] = "eye-in-hand"
 
 
 class CalibrationRemove(Message):

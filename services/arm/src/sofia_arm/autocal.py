@@ -13,27 +13,28 @@ from __future__ import annotations
 
 import logging
 import time
-from dataclasses import dataclass, field
 
 import numpy as np
 import zenoh
 from sofia_calibrator.blob import find_blob
 from sofia_calibrator.errors import CalibrationError
+from sofia_calibrator.targets.ball import find_ball
 from sofia_runtime.client import QueryError
 from sofia_schemas.keys import Keys
 from sofia_schemas.messages import ArmCommand, ArmResult, CalibrationResult
 from sofia_schemas.messages.arm import VIEW_WITHOUT_SAMPLE
 from sofia_schemas.transforms import apply, invert
 
+from . import autocal_fixed as fixed
 from . import plan
-from .autocal_io import BusCalibrator, BusEye, CalibratorLink, Eye, Progress
+from .autocal_io import BusCalibrator, BusEye, CalibratorLink, Eye, Frame, Progress
 from .autocal_look import AutocalError, Looker
-from .autocal_options import AutocalOptions, to_arm_result
+from .autocal_options import AutocalOptions, Outcome, to_arm_result
 from .motion import ArmMotion
 from .poses import Reach, in_image, solve_ik, views_of
 
 log = logging.getLogger("sofia.arm.autocal")
-__all__ = ["Autocal", "AutocalError", "AutocalOptions", "Outcome", "run_autocal"]
+__all__ = ["Autocal", "AutocalError", "AutocalOptions", "FixedAutocal", "Outcome", "run_autocal"]
 MAX_OFFSET_M = 0.25  # a camera on the flange is closer than this to the flange origin
 TRUST_SIGMA_MM = 5.0  # the calibrator's estimate steers the views once the model predicts this 1-sigma
 # where the blob may be put in the image (right, down; degrees): off-centre views observe the
@@ -42,20 +43,10 @@ IMAGE_OFFSETS_DEG = np.array([[0, 0], [12, 0], [-12, 0], [0, 9], [0, -9], [9, 7]
 D435_K = np.array([[615.0, 0.0, 319.5], [0.0, 615.0, 239.5], [0.0, 0.0, 1.0]])
 
 
-@dataclass
-class Outcome:
-    result: CalibrationResult | None
-    poses: int  # samples taken
-    visits: int  # poses visited for samples (failed ones included)
-    T_base_flange: list[np.ndarray] = field(default_factory=list)
-    stop_reason: str = ""
-    # (3,) translation 1-sigma, flange axes, mm: the stop rule's (:meth:`Autocal.sigma_mm`), the
-    # calibrator's reported one never below the noise model's; None without a result
-    sigma_translation_mm: np.ndarray | None = None
-
-
 class Autocal(Looker):
     """One autonomous calibration run (:meth:`run`)."""
+
+    TARGET = "blob"  # what the views show, as the progress lines name it
 
     def __init__(self, arm: ArmMotion, eye: Eye, cal: CalibratorLink, opts: AutocalOptions,
                  progress: Progress, reach: Reach | None = None, K: np.ndarray = D435_K,
@@ -83,11 +74,17 @@ class Autocal(Looker):
         )
         return np.asarray(T_bf[keep])
 
+    def model_poses(self, T_base_flange: np.ndarray) -> np.ndarray:
+        """(n, 4, 4) the poses of the calibrator's model for flange poses (n, 4, 4): themselves
+        eye-in-hand (eye-to-hand inverts them, :class:`sofia_arm.autocal_fixed.FixedAutocal`)."""
+        return T_base_flange
+
     def information(self) -> np.ndarray:
         assert self.T_fc is not None and self.p_base is not None
         info = plan.prior_information()
         if self.samples_T:
-            info = info + plan.information(np.array(self.samples_T), self.T_fc, self.p_base).sum(axis=0)
+            poses = self.model_poses(np.array(self.samples_T))
+            info = info + plan.information(poses, self.T_fc, self.p_base).sum(axis=0)
         return info
 
     def next_pose(self, tried: list[np.ndarray]) -> np.ndarray | None:
@@ -96,44 +93,64 @@ class Autocal(Looker):
         if tried:  # not the same view twice
             d = np.linalg.norm(cands[:, None, :3, 3] - np.array(tried)[None, :, :3, 3], axis=2).min(axis=1)
             cands = cands[d > 0.01]
-        ranked = plan.rank_candidates(self.information(), cands, self.T_fc, self.p_base)
+        ranked = plan.rank_candidates(self.information(), self.model_poses(cands), self.T_fc, self.p_base)
         for i in ranked.order[:25]:
             ik = solve_ik(cands[i], self.arm.q(), self.reach, n_random_seeds=2)
             if ik.ok:
                 return np.asarray(cands[i])
         return None
 
-    def sample_at(self, T_target: np.ndarray, k: int) -> str:
-        """Visit a view and add its sample; returns what happened (one progress line)."""
-        if not self._go(T_target, f"pose {k}"):
-            return "unreachable"
-        T_bf, frame = self._look(f"pose {k}")
+    def observe(self, frame: Frame) -> tuple[np.ndarray, float, str]:
+        """(p_cam (3,) camera frame m, confidence, description) of the target in a frame; raises
+        CalibrationError when it is not seen."""
+        assert frame.rgb is not None
+        blob = find_blob(frame.points_cam, frame.rgb)
+        u, v = blob.centroid_px
+        return blob.p_cam, blob.confidence, (f"blob at ({u:.0f}, {v:.0f}) px, {blob.p_cam[2]:.3f} m, "
+                                             f"confidence {blob.confidence:.2f}")  # fmt: skip
+
+    def rough_update(self) -> None:
+        """Before the calibrator's estimate is trusted: the camera's rotation is known (table), so
+        the offset is linear; kept when well conditioned and plausible."""
+        if self.T_fc is None or len(self.samples_T) < 3:
+            return
+        lin = plan.offset_given_rotation(
+            np.array(self.samples_T), self.T_fc[:3, :3], np.array(self.samples_p), min_singular=0.15
+        )
+        if lin is not None and np.linalg.norm(lin[0]) < MAX_OFFSET_M:
+            self.T_fc[:3, 3], self.p_base = lin
+
+    def take(self, step: str) -> tuple[bool, str]:
+        """Look from where the arm is and add the sample: (taken, one progress line)."""
+        T_bf, frame = self._look(step)
         K = plan.intrinsics_of(frame.points_cam)
         if K is not None:  # the views of the next poses use the camera's own image
             self.K, self.image_size = K, (frame.points_cam.shape[1], frame.points_cam.shape[0])
         if frame.rgb is None:
-            raise AutocalError(f"pose {k}", "the camera frames have no colour")
+            raise AutocalError(step, "the camera frames have no colour")
         try:
-            blob = find_blob(frame.points_cam, frame.rgb)
+            p_cam, confidence, text = self.observe(frame)
         except CalibrationError as e:
-            return f"no blob: {e}"
-        self.cal.add(frame.stamp_ns, blob.p_cam, T_bf, blob.confidence)
+            return False, f"no {self.TARGET}: {e}"
+        self.cal.add(frame.stamp_ns, p_cam, T_bf, confidence)
         self.samples_T.append(T_bf)
-        self.samples_p.append(blob.p_cam)
-        if not self.trusted and self.T_fc is not None and len(self.samples_T) >= 3:
-            # the rotation is known (table): the offset is linear; kept when well conditioned and plausible
-            lin = plan.offset_given_rotation(
-                np.array(self.samples_T), self.T_fc[:3, :3], np.array(self.samples_p), min_singular=0.15
-            )
-            if lin is not None and np.linalg.norm(lin[0]) < MAX_OFFSET_M:
-                self.T_fc[:3, 3], self.p_base = lin
-        u, v = blob.centroid_px
-        text = f"blob at ({u:.0f}, {v:.0f}) px, {blob.p_cam[2]:.3f} m, confidence {blob.confidence:.2f}"
+        self.samples_p.append(p_cam)
+        return True, text
+
+    def sample_at(self, T_target: np.ndarray, k: int) -> tuple[bool, str]:
+        """Visit a view and add its sample: (taken, what happened as one progress line)."""
+        if not self._go(T_target, f"pose {k}"):
+            return False, "unreachable"
+        ok, text = self.take(f"pose {k}")
+        if not ok:
+            return False, text
+        if not self.trusted:
+            self.rough_update()
         if len(self.samples_T) >= 3:
             try:
                 self.result = self.cal.solve()
             except QueryError as e:
-                return f"{text}; not solved yet: {e}"
+                return True, f"{text}; not solved yet: {e}"
             self.trusted = self.trusted or self.model_sigma_mm().max() < TRUST_SIGMA_MM
             if self.trusted:  # the views pin the calibrator's estimate: steer by it
                 self.T_fc = np.array(self.result.matrix)
@@ -141,7 +158,7 @@ class Autocal(Looker):
             s = self.result.std_translation_mm
             m = self.model_sigma_mm()
             text += f"; 1-sigma t [{s[0]:.2f}, {s[1]:.2f}, {s[2]:.2f}] mm (model [{m[0]:.2f}, {m[1]:.2f}, {m[2]:.2f}])"
-        return text
+        return True, text
 
     def model_sigma_mm(self) -> np.ndarray:
         """(3,) 1-sigma of t_fc (flange axes, mm) the D435 noise model predicts for the samples taken."""
@@ -161,14 +178,18 @@ class Autocal(Looker):
             and float(self.sigma_mm().max()) < self.opts.target_sigma_mm
         )
 
-    def run(self) -> Outcome:
-        t0 = time.monotonic()
-        q_start = self.arm.q()
-        self.cal.reset()
+    def start(self) -> None:
+        """What the views need first: the camera's rotation (table) and the blob's position."""
         if self.T_fc is None:
             self.orient()
         if self.p_base is None:
             self.find()
+
+    def run(self) -> Outcome:
+        t0 = time.monotonic()
+        q_start = self.arm.q()
+        self.cal.reset()
+        self.start()
         visits, failures, tried = 0, 0, list[np.ndarray]()
         stop = f"pose budget of {self.opts.max_poses} spent"
         while len(self.samples_T) < self.opts.max_poses:
@@ -179,8 +200,7 @@ class Autocal(Looker):
             tried.append(T)
             visits += 1
             t = time.monotonic()
-            text = self.sample_at(T, len(self.samples_T) + 1)
-            ok = text.startswith("blob")
+            ok, text = self.sample_at(T, len(self.samples_T) + 1)
             failures = 0 if ok else failures + 1
             name = (
                 f"pose {len(self.samples_T)}/{self.opts.max_poses}"
@@ -201,6 +221,59 @@ class Autocal(Looker):
         return Outcome(self.result, len(self.samples_T), visits, self.samples_T, stop, sigma)
 
 
+class FixedAutocal(Autocal):
+    """Eye-to-hand: a fixed camera, a ball on the flange (:mod:`sofia_arm.autocal_fixed`).
+    ``T_fc`` holds T_base_cam and ``p_base`` the ball's centre in the flange frame."""
+
+    TARGET = "ball"
+    R_start: np.ndarray | None = None  # (3, 3) the flange's orientation at the start (base frame)
+
+    def model_poses(self, T_base_flange: np.ndarray) -> np.ndarray:
+        return fixed.inverse_poses(T_base_flange)
+
+    def observe(self, frame: Frame) -> tuple[np.ndarray, float, str]:
+        assert frame.rgb is not None
+        ball = find_ball(frame.points_cam, frame.rgb, self.opts.ball_radius)
+        u, v = ball.centroid_px
+        s = ball.sphere
+        return ball.p_cam, ball.confidence, (f"ball at ({u:.0f}, {v:.0f}) px, {s.p_cam[2]:.3f} m, radius "
+                                             f"{1e3 * s.radius_m:.1f} mm, confidence {ball.confidence:.2f}")  # fmt: skip
+
+    def rough_update(self) -> None:
+        """Nothing: the start's estimate steers until the calibrator's is trusted."""
+
+    def start(self) -> None:
+        """Without a guess: the ball seen from the start pose and from small shifts and turns of
+        the flange (every one a sample) gives a rough ``T_base_cam`` and ball position."""
+        T_start = self.arm.T_base_flange()
+        self.R_start = T_start[:3, :3].copy()
+        if self.T_fc is not None and self.p_base is not None:
+            return
+        ok, text = self.take("find ball")
+        if not ok:
+            raise AutocalError(
+                "find ball", f"the fixed camera does not see the ball at the start pose ({text})"
+            )
+        self.progress.add("find ball", "done", text)
+        for name, T in fixed.start_moves(T_start):
+            if self._go(T, name):
+                ok, text = self.take(name)
+                self.progress.add(name, "done" if ok else "failed", text)
+        rough = fixed.rough_fixed(np.array(self.samples_T), np.array(self.samples_p))
+        if rough is None:
+            raise AutocalError("find camera", f"the ball was seen in {len(self.samples_T)} start views, too few "
+                               "shifts and turns: start where the flange can move 6 cm and turn 25 deg")  # fmt: skip
+        self.T_fc, self.p_base = rough
+        self.progress.add("find camera", "done", f"camera near {np.round(self.T_fc[:3, 3], 3).tolist()} m (base), "
+                          f"ball near {np.round(self.p_base, 3).tolist()} m (flange)")  # fmt: skip
+
+    def candidates(self, first: bool) -> np.ndarray:
+        assert self.T_fc is not None and self.p_base is not None
+        R_start = self.arm.T_base_flange()[:3, :3] if self.R_start is None else self.R_start
+        return fixed.fixed_candidates(self.T_fc, self.p_base, R_start, self.reach, self.opts.distance_m,
+                                      self.K, self.image_size, self.opts.margin_px)  # fmt: skip
+
+
 def run_autocal(cmd: ArmCommand, arm: ArmMotion, session: zenoh.Session, keys: Keys) -> ArmResult:
     """The arm service's ``calibrate`` command (options in ``cmd.calibrate``)."""
     t0 = time.monotonic()
@@ -210,7 +283,8 @@ def run_autocal(cmd: ArmCommand, arm: ArmMotion, session: zenoh.Session, keys: K
     try:
         safety = getattr(arm, "safety", None)  # the service's tool and surface rule, for every view
         reach = None if safety is None else safety.planner_reach(Reach())
-        run = Autocal(arm, eye, BusCalibrator(session, keys), opts, progress, reach)
+        cal = BusCalibrator(session, keys, setup=opts.setup)
+        run = (FixedAutocal if opts.setup == "eye-to-hand" else Autocal)(arm, eye, cal, opts, progress, reach)
         try:
             outcome = run.run()
         except AutocalError as e:

@@ -23,10 +23,16 @@ def register_auto(calibrate_parser: argparse.ArgumentParser) -> None:
         description="The arm service plans views of the blob, visits them, feeds the calibrator and stops "
         "when the translation 1-sigma is below the target or the pose budget is spent.",
     )  # fmt: skip
+    a.add_argument("--setup", choices=("eye-in-hand", "eye-to-hand"), default="eye-in-hand",
+                   help="eye-in-hand: the camera on the flange, the blob on the table; eye-to-hand: a fixed "
+                   "camera, a ball on the flange (default eye-in-hand)")  # fmt: skip
     a.add_argument("--blob", nargs=3, type=float, metavar=("X", "Y", "Z"),
-                   help="rough blob position, base frame, metres (default: found from the start pose)")  # fmt: skip
+                   help="rough target position, metres: the blob in the base frame, or (eye-to-hand) the "
+                   "ball in the flange frame (default: found from the start pose)")  # fmt: skip
     a.add_argument("--guess", nargs=7, type=float, metavar=("X", "Y", "Z", "QX", "QY", "QZ", "QW"),
-                   help="rough T_flange_cam (default: the camera's rotation from the table)")  # fmt: skip
+                   help="rough T_flange_cam, or (eye-to-hand) T_base_cam (default: found from the start pose)")  # fmt: skip
+    a.add_argument("--ball-radius", type=float, metavar="M",
+                   help="eye-to-hand: the ball's radius, metres (default: fitted in each view)")  # fmt: skip
     a.add_argument("--target-mm", type=float, default=1.0, help="stop at this translation 1-sigma (mm)")
     a.add_argument("--max-poses", type=int, default=20, help="pose budget: most poses visited (default 20)")
     a.add_argument("--min-poses", type=int, default=6, help="poses taken before stopping early (default 6)")
@@ -40,7 +46,9 @@ def register_auto(calibrate_parser: argparse.ArgumentParser) -> None:
 
 def options(args: argparse.Namespace) -> dict[str, Any]:
     opts: dict[str, Any] = {"target_sigma_mm": args.target_mm, "max_poses": args.max_poses,
-                            "min_poses": args.min_poses}  # fmt: skip
+                            "min_poses": args.min_poses, "setup": args.setup}  # fmt: skip
+    if args.ball_radius is not None:
+        opts["ball_radius"] = args.ball_radius
     if args.blob:
         opts["blob"] = list(args.blob)
     if args.guess:
@@ -79,7 +87,8 @@ def run_auto(args: argparse.Namespace) -> int:
     r = res.details.get("result")
     print(f"{res.status}: {res.reason} ({res.details.get('samples', 0)} samples, {res.duration_s:.0f} s)")
     if r:
-        print("T_flange_cam (camera optical frame -> flange, metres):")
+        print("T_base_cam (camera optical frame -> base, metres):" if args.setup == "eye-to-hand"
+              else "T_flange_cam (camera optical frame -> flange, metres):")  # fmt: skip
         print(np.array2string(np.array(r["matrix"]), precision=4, suppress_small=True))
         print(f"  translation {np.round(r['translation'], 4).tolist()} m, quaternion x y z w "
               f"{np.round(r['quaternion_xyzw'], 4).tolist()}")  # fmt: skip

@@ -17,7 +17,7 @@ from sofia_runtime.client import QueryError, ask
 from sofia_schemas import pointcloud
 from sofia_schemas.keys import ENCODING_JSON, Keys
 from sofia_schemas.messages import ArmPhase, CalibrationResult, CalibrationSample
-from sofia_schemas.messages.calibration import CalibrationSamples
+from sofia_schemas.messages.calibration import CalibrationSamples, CalibrationSolveOptions
 from sofia_schemas.transforms import matrix_to_quat_xyzw
 
 
@@ -97,26 +97,34 @@ class BusEye:
 
 
 class BusCalibrator:
-    """The calibrator service through its queryables (``reset``, ``add``, ``solve``)."""
+    """The calibrator service through its queryables (``reset``, ``add``, ``solve``); ``setup``
+    (sent with the reset and each solve, kept by the service) picks ``T_flange_cam`` or
+    ``T_base_cam``."""
 
-    def __init__(self, session: zenoh.Session, keys: Keys, timeout_s: float = 10.0) -> None:
+    def __init__(self, session: zenoh.Session, keys: Keys, timeout_s: float = 10.0,
+                 setup: str = "eye-in-hand") -> None:  # fmt: skip
         self.session, self.keys, self.timeout_s = session, keys, timeout_s
+        self.options = CalibrationSolveOptions(setup=setup).model_dump_json()  # type: ignore[arg-type]
 
     def reset(self) -> None:
-        ask(self.session, self.keys.calibrator_op("reset"), CalibrationSamples, b"", self.timeout_s)
+        # the set-up goes with the reset: the service's own solves in between use it too
+        ask(self.session, self.keys.calibrator_op("reset"), CalibrationSamples, self.options, self.timeout_s)
 
     def add(self, stamp_ns: int, p_cam: np.ndarray, T_base_flange: np.ndarray, confidence: float) -> None:
         payload = sample(stamp_ns, p_cam, T_base_flange, confidence).model_dump_json()
         ask(self.session, self.keys.calibrator_op("add"), CalibrationSamples, payload, self.timeout_s)
 
     def solve(self) -> CalibrationResult:
-        return ask(self.session, self.keys.calibrator_op("solve"), CalibrationResult, b"", self.timeout_s)
+        return ask(
+            self.session, self.keys.calibrator_op("solve"), CalibrationResult, self.options, self.timeout_s
+        )
 
 
 class LocalCalibrator:
     """The calibrator library in this process (benchmarks and planning studies)."""
 
-    def __init__(self) -> None:
+    def __init__(self, setup: str = "eye-in-hand") -> None:
+        self.setup = setup
         self.p_cam: list[np.ndarray] = []
         self.T_base_flange: list[np.ndarray] = []
         self.confidence: list[float] = []
@@ -130,13 +138,16 @@ class LocalCalibrator:
         self.confidence.append(confidence)
 
     def solve(self) -> CalibrationResult:
-        from sofia_calibrator import calibrate, to_message
+        from sofia_calibrator import to_message
+        from sofia_calibrator.eye_to_hand import calibrate_setup
         from sofia_calibrator.online import MIN_CONFIDENCE
 
         p = np.array(self.p_cam)
         conf = np.clip(self.confidence, MIN_CONFIDENCE, 1.0)  # as the service: default noise and correction
         try:
-            cal = calibrate(p, np.array(self.T_base_flange), confidence=conf, leave_one_out=False)
+            cal = calibrate_setup(
+                p, np.array(self.T_base_flange), self.setup, confidence=conf, leave_one_out=False
+            )
         except Exception as e:  # the service answers an error reply: the same here
             raise QueryError(f"calibrate: {type(e).__name__}: {e}") from e
         return to_message(cal)

@@ -2,28 +2,50 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass, fields
-from typing import TYPE_CHECKING, Any
+from dataclasses import dataclass, field, fields
+from typing import Any
 
 import numpy as np
-from sofia_schemas.messages import ArmResult
+from sofia_schemas.messages import ArmResult, CalibrationResult
 from sofia_schemas.transforms import matrix_to_quat_xyzw
 
 from .autocal_io import Progress
 from .motion import ArmMotion
 
-if TYPE_CHECKING:
-    from .autocal import Outcome
+SETUPS = ("eye-in-hand", "eye-to-hand")
+EYE_TO_HAND_DISTANCE_M = (0.45, 0.9)  # the ball's distance from a fixed camera (default)
+
+
+@dataclass
+class Outcome:
+    """What a run did: its result, samples taken, poses visited and why it stopped."""
+
+    result: CalibrationResult | None
+    poses: int  # samples taken
+    visits: int  # poses visited for samples (failed ones included)
+    T_base_flange: list[np.ndarray] = field(default_factory=list)
+    stop_reason: str = ""
+    # (3,) translation 1-sigma, mm (flange axes eye-in-hand, base axes eye-to-hand): the stop rule's
+    # (:meth:`~sofia_arm.autocal.Autocal.sigma_mm`), the calibrator's reported one never below the
+    # noise model's; None without a result
+    sigma_translation_mm: np.ndarray | None = None
 
 
 @dataclass
 class AutocalOptions:
     """Options of ``calibrate`` (the command's ``calibrate`` dict, every key optional).
 
-    blob: rough blob position (base frame, m); guess: T_flange_cam as x y z qx qy qz qw; without
-    either, both are found from the start pose (the table seen from flange tilts, the blob seen in
-    those frames).
+    setup: eye-in-hand (the camera on the flange, the blob on the table) or eye-to-hand (a fixed
+    camera, a ball on the flange). blob: rough target position (base frame eye-in-hand, flange frame
+    eye-to-hand, m); guess: T_flange_cam (eye-to-hand: T_base_cam) as x y z qx qy qz qw; without
+    either, both are found from the start pose (eye-in-hand: the table seen from flange tilts, the
+    blob seen in those frames; eye-to-hand: the ball seen while the flange moves and turns a
+    little). ball_radius: the ball's radius (m; None: fitted). distance_m: of the target from the
+    camera (eye-to-hand default 0.45-0.9).
     """
+
+    setup: str = "eye-in-hand"
+    ball_radius: float | None = None
 
     blob: tuple[float, float, float] | None = None
     guess: tuple[float, ...] | None = None
@@ -47,6 +69,12 @@ class AutocalOptions:
         opts = cls(**{k: tuple(v) if isinstance(v, list) else v for k, v in d.items()})  # type: ignore[arg-type]
         if speed is not None and "speed" not in d:
             opts.speed = speed
+        if opts.setup not in SETUPS:
+            raise ValueError(f"setup must be one of {list(SETUPS)}, got {opts.setup!r}")
+        if opts.setup == "eye-to-hand" and "distance_m" not in d:
+            opts.distance_m = EYE_TO_HAND_DISTANCE_M
+        if opts.ball_radius is not None and not 0.005 <= opts.ball_radius <= 0.1:
+            raise ValueError(f"ball_radius must be within [0.005, 0.1] m, got {opts.ball_radius}")
         if opts.blob is not None and (len(opts.blob) != 3 or not np.all(np.isfinite(opts.blob))):
             raise ValueError(f"blob must be 3 finite numbers (x y z, m), got {opts.blob}")
         if opts.guess is not None and len(opts.guess) != 7:

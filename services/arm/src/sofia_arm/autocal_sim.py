@@ -83,3 +83,29 @@ class SheetEye:
         r = render(self.scene[0], self.scene[1], T_base_cam, self.camera, self.rng)
         self.frames += 1
         return Frame(max(stamp_ns, self.arm.clock_ns), r.points_cam.astype(np.float64), r.rgb)
+
+
+class BallEye:
+    """A fixed D435 at ``T_base_cam`` (4, 4) seeing the ball on the flange of ``arm`` (the camera
+    service's eye-to-hand cell, ``sofia_camera.sim_fixed``, needed only here)."""
+
+    def __init__(
+        self, arm: KinematicArm, T_base_cam: np.ndarray, p_flange: tuple[float, float, float],
+        radius_m: float, seed: int = 0,
+    ) -> None:  # fmt: skip
+        from sofia_camera.sim_fixed import FixedCameraCell, eye_to_hand_state
+        from sofia_replay.synth import Camera
+
+        self.arm = arm
+        self.cell = FixedCameraCell(eye_to_hand_state(T_base_cam, p_flange, radius_m))
+        self.camera = Camera()
+        self.rng = np.random.default_rng(seed)
+        self.frames = 0
+
+    def frame_after(self, stamp_ns: int, timeout_s: float) -> Frame | None:
+        from sofia_replay.synth.camera import render
+
+        rc, colour_of = self.cell.scene_at(self.arm.T_base_flange())
+        r = render(rc, colour_of, self.cell.T_base_cam, self.camera, self.rng)
+        self.frames += 1
+        return Frame(max(stamp_ns, self.arm.clock_ns), r.points_cam.astype(np.float64), r.rgb)

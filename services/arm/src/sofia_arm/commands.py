@@ -132,7 +132,7 @@ class Commands:
                 opts = AutocalOptions.from_dict(cmd.calibrate, cmd.speed)
             except (TypeError, ValueError) as e:
                 raise TargetRefused(f"calibrate options: {e}") from None
-            if opts.blob is not None:
+            if opts.blob is not None and opts.setup == "eye-in-hand":  # eye-to-hand: on the flange
                 c.safety.check_look_target(np.array(opts.blob), "calibrate blob")
 
     @staticmethod

@@ -1,7 +1,7 @@
 """One call for every target and set-up: ``calibrate_target(target, setup, ...)`` returns the same
 :class:`Calibration` (and so the same message, YAML, ROS launch line, TF and plot) whichever the
-target: a blob or a sphere (points, the point solver), a ChArUco board (its pose per view) or
-plain 6-DoF target poses (OpenCV starts, joint refinement: :mod:`sofia_calibrator.targets.poses`)."""
+target: a blob or a sphere (points, the point solver), a ChArUco board or an AprilTag (its pose
+per view) or plain 6-DoF target poses (OpenCV starts, joint refinement: :mod:`sofia_calibrator.targets.poses`)."""
 
 from __future__ import annotations
 
@@ -13,12 +13,14 @@ from .errors import InputMismatch
 from .eye_to_hand import BASE_FRAME, CAMERA_FRAME, SETUPS, calibrate_setup, flange_base_poses
 from .fitting import diagnostics as dg
 from .fitting.calibrate import CHILD_FRAME, PARENT_FRAME, Calibration
+from .targets.apriltag import TagSpec, tag_poses
+from .targets.board_points import board_points_fit, corner_points
 from .targets.charuco import BoardSpec, board_poses
 from .targets.poses import DEFAULT_SIZE_M, PoseFit, fixed_target, hand_eye_from_poses, residuals
 from .targets.sphere import DEFAULT_INLIER_M, sphere_centres
 
-TARGETS = ("blob", "sphere", "poses", "charuco")
-PLANNED = ("apriltag",)  # marker detection: not built yet
+TARGETS = ("blob", "sphere", "poses", "charuco", "apriltag")
+PLANNED: tuple[str, ...] = ()  # targets named but not built yet
 
 
 def frames(setup: str) -> tuple[str, str]:
@@ -40,6 +42,7 @@ def calibrate_target(
     images: list[np.ndarray] | None = None,
     K: np.ndarray | None = None,
     board: BoardSpec | None = None,
+    tag: TagSpec | None = None,
     parent_frame: str | None = None,
     child_frame: str | None = None,
     **options: Any,
@@ -51,7 +54,9 @@ def calibrate_target(
     fitted) found in each; "poses": T_cam_target (n, 4, 4) measured target poses (``size_m``: the
     target's size, weighting a rotation in the first pass); "charuco": grey images (h, w) uint8, the
     camera matrix K (3, 3) and the ``board`` (:class:`BoardSpec`), each view's board pose by PnP
-    on its ChArUco corners, then as "poses". setup: "eye-in-hand" (result
+    on its ChArUco corners, then as "poses" (with ``clouds_cam``, organized (h, w, 3) clouds
+    registered to the images: refined on every corner's 3D point, :mod:`.targets.board_points`); "apriltag": the same with the ``tag``
+    (:class:`TagSpec`), each view's tag pose by PnP on its four corners. setup: "eye-in-hand" (result
     T_flange_cam) or "eye-to-hand" (result T_base_cam). options: those of :func:`calibrate` (for
     points). Returns a :class:`Calibration` with the set-up's frames unless given.
     """
@@ -70,8 +75,21 @@ def calibrate_target(
             raise InputMismatch(
                 "target 'charuco' needs images (one per flange pose) and K, the camera matrix"
             )
-        T_cam_target = board_poses(images, K, board or BoardSpec())
-        size_m = max((board or BoardSpec()).size_m)
+        spec = board or BoardSpec()
+        T_cam_target = board_poses(images, K, spec)
+        size_m = max(spec.size_m)
+        if clouds_cam is not None:  # the corners with depth refine the board poses' fit
+            start = hand_eye_from_poses(T_base_flange, T_cam_target, size_m, setup)
+            fit = board_points_fit(T_base_flange, corner_points(images, clouds_cam, spec), start, spec, setup)
+            return pose_calibration(fit, T_base_flange, T_cam_target, setup, parent, child)
+        target = "poses"
+    if target == "apriltag":
+        if images is None or K is None:
+            raise InputMismatch(
+                "target 'apriltag' needs images (one per flange pose) and K, the camera matrix"
+            )
+        T_cam_target = tag_poses(images, K, tag or TagSpec())
+        size_m = (tag or TagSpec()).side_m
         target = "poses"
     if target == "poses":
         if T_cam_target is None:

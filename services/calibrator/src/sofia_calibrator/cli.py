@@ -73,6 +73,14 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     s = cs.add_parser("serve", help="run the online calibrator service on Zenoh")
     s.add_argument("--state-dir", default="./var/calibrator", help="sample database and saved results")
     s.add_argument("--from-clouds", action="store_true", help="also extract the blob from camera clouds")
+    s.add_argument("--cloud-target", choices=("blob", "ball"), default="blob",
+                   help="with --from-clouds: the blob on the sheet, or a coloured ball (default blob)")  # fmt: skip
+    s.add_argument(
+        "--ball-radius", type=float, metavar="M", help="the ball's radius, metres (default: fitted)"
+    )
+    s.add_argument("--setup", choices=("eye-in-hand", "eye-to-hand"), default="eye-in-hand",
+                   help="solve T_flange_cam (eye-in-hand) or T_base_cam (eye-to-hand: the target on the "
+                   "flange); a solve query's options may change it (default eye-in-hand)")  # fmt: skip
     s.add_argument("--tolerance-ms", type=float, default=50.0, help="pose/blob stamp gap, ms")
     s.add_argument("--min-samples", type=int, default=3, help="samples before the first solve")
     s.add_argument("--max-samples", type=int, default=MAX_SAMPLES,
@@ -101,8 +109,8 @@ def add_target_args(p: argparse.ArgumentParser) -> None:
     """--target / --setup and the inputs of the sphere and pose targets."""
     g = p.add_argument_group("target and set-up")
     g.add_argument("--target", default="blob", choices=("blob", "sphere", "poses", "charuco", "apriltag"),
-                   help="what the camera sees: blob (default), sphere (--clouds), poses (--pose-pairs); "
-                   "charuco from Python (calibrate_target); apriltag is not available yet")  # fmt: skip
+                   help="what the camera sees: blob (default), sphere (--clouds), poses (--pose-pairs), "
+                   "charuco (--images, --camera-matrix, --board), apriltag (--images, --camera-matrix, --tag-size)")  # fmt: skip
     g.add_argument("--setup", default="eye-in-hand", choices=("eye-in-hand", "eye-to-hand"),
                    help="eye-in-hand: camera on the flange (T_flange_cam, default); eye-to-hand: camera "
                    "fixed, target on the flange (T_base_cam)")  # fmt: skip
@@ -117,6 +125,28 @@ def add_target_args(p: argparse.ArgumentParser) -> None:
     )
     g.add_argument("--pose-pairs", metavar="FILE",
                    help="poses: OpenCV YAML of T1_i (flange) / T2_i (target in camera) pairs")  # fmt: skip
+    g.add_argument(
+        "--images", nargs="+", metavar="IMAGE", help="charuco: one rectified image per flange pose"
+    )
+    g.add_argument("--camera-matrix", metavar="'fx fy cx cy'|FILE",
+                   help="charuco: the images' intrinsics (pixels), or a YAML/JSON file with K or fx fy cx cy")  # fmt: skip
+    g.add_argument("--board", nargs=4, type=float, metavar=("COLS", "ROWS", "SQUARE", "MARKER"),
+                   help="charuco: squares across and down, square and marker sides in metres (default 7 5 0.04 0.03)")  # fmt: skip
+    g.add_argument(
+        "--board-dict", default="DICT_5X5_100", help="charuco: the ArUco dictionary (default DICT_5X5_100)"
+    )
+    g.add_argument(
+        "--tag-size",
+        type=float,
+        default=0.08,
+        help="apriltag: the black square's side, metres (default 0.08)",
+    )
+    g.add_argument(
+        "--tag-family",
+        default="DICT_APRILTAG_36h11",
+        help="apriltag: OpenCV's dictionary (default DICT_APRILTAG_36h11)",
+    )
+    g.add_argument("--tag-id", type=int, default=0, help="apriltag: the tag's id (default 0)")
 
 
 def run_target(args: argparse.Namespace) -> object:
@@ -138,6 +168,8 @@ def run_target(args: argparse.Namespace) -> object:
             raise InputMismatch("--target poses needs --pose-pairs FILE")
         T, T_cam_target = read_opencv_pose_pairs(args.pose_pairs)
         return calibrate_target("poses", args.setup, T_base_flange=T, T_cam_target=T_cam_target, **common)
+    if args.target in ("charuco", "apriltag"):
+        return calibrate_target(args.target, args.setup, **image_inputs(args), **common)
     if args.euler_poses:
         from .targets.files import read_euler_poses
 
@@ -161,6 +193,48 @@ def run_target(args: argparse.Namespace) -> object:
         return calibrate_target("sphere", args.setup, T_base_flange=T, clouds_cam=clouds, radius_m=args.radius,
                                 **options)  # fmt: skip
     return calibrate_target(args.target, args.setup, T_base_flange=T, p_cam=p_cam, **options)
+
+
+def image_inputs(args: argparse.Namespace) -> dict[str, Any]:
+    """T_base_flange (--tfs or --euler-poses), the grey images, K and the board or the tag of
+    --target charuco or apriltag."""
+    from .targets.apriltag import TagSpec
+    from .targets.charuco import BoardSpec
+    from .targets.files import read_camera_matrix, read_euler_poses, read_grey_images
+
+    if not args.images or not args.camera_matrix:
+        raise InputMismatch(
+            f"--target {args.target} needs --images (one per flange pose) and --camera-matrix"
+        )
+    if args.euler_poses:
+        T = read_euler_poses(args.euler_poses, args.euler_convention, args.length_unit)
+    elif args.tfs:
+        from .inputs.lab import read_tfs
+
+        T = read_tfs(args.tfs)
+    else:
+        raise InputMismatch(
+            f"--target {args.target} needs the flange poses: --tfs FILE or --euler-poses FILE"
+        )
+    if len(args.images) != len(T):
+        raise InputMismatch(f"{len(args.images)} images but {len(T)} flange poses")
+    inputs = {
+        "T_base_flange": T,
+        "images": read_grey_images(args.images),
+        "K": read_camera_matrix(args.camera_matrix),
+    }
+    if args.target == "apriltag":
+        return {**inputs, "tag": TagSpec(args.tag_family, args.tag_id, args.tag_size)}
+    import cv2
+
+    if not args.board_dict.startswith("DICT_") or not hasattr(cv2.aruco, args.board_dict):
+        raise InputMismatch(
+            f"--board-dict {args.board_dict!r} is not an OpenCV ArUco dictionary (e.g. DICT_5X5_100)"
+        )
+    board = BoardSpec(dictionary=args.board_dict) if args.board is None else BoardSpec(
+        (int(args.board[0]), int(args.board[1])), args.board[2], args.board[3], args.board_dict
+    )  # fmt: skip
+    return {**inputs, "board": board}
 
 
 def add_frame_args(p: argparse.ArgumentParser) -> None:

@@ -18,6 +18,7 @@ from sofia_schemas.transforms import make_transform, matrix_to_quat_xyzw
 
 from .errors import CalibrationError
 from .fitting.calibrate import CHILD_FRAME, PARENT_FRAME, calibrate
+from .eye_to_hand import BASE_FRAME, flange_base_poses
 from .formats import to_message
 from .pairing import NotPaired, PairingOptions, PoseBuffer
 from .samples.store import SampleStore
@@ -84,17 +85,22 @@ class Calibrator:
     def solve(self, options: CalibrationSolveOptions | None = None) -> CalibrationResult:
         """``calibrate()`` of the stored samples as ``sofia calibrate`` runs it: noise model, camera
         correction, loss and outliers from ``options`` (default: the service's), a less confident blob
-        weighing less."""
+        weighing less. ``options.setup`` eye-to-hand solves ``T_base_cam`` (the stored flange poses
+        inverted, :mod:`sofia_calibrator.eye_to_hand`)."""
         opts = options or self.options
         p, T, ids = self.store.arrays()
         guess = (
             None if opts.guess is None else make_transform(np.array(opts.guess[:3]), np.array(opts.guess[3:]))
         )
         conf = np.clip([s.confidence for s in self.store.ordered()], MIN_CONFIDENCE, 1.0)
+        parent = self.parent_frame
+        if opts.setup == "eye-to-hand":  # T_base_cam: the base is the parent (unless configured)
+            T = flange_base_poses(T)
+            parent = BASE_FRAME if parent == PARENT_FRAME else parent
         cal = calibrate(
             p, T, guess=guess, sigma=opts.noise, confidence=conf, loss=opts.loss,  # type: ignore[arg-type]
             exclude_outliers=opts.exclude_outliers, correction=opts.correction,
-            parent_frame=self.parent_frame, child_frame=self.child_frame,
+            parent_frame=parent, child_frame=self.child_frame,
         )  # fmt: skip
         self.result = to_message(cal, now_ns(), ids)
         self.result = self.result.model_copy(

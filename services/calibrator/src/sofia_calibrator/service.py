@@ -38,6 +38,7 @@ from sofia_schemas.messages.calibration import (
     CalibrationSolveOptions,
 )
 
+from .cloud_target import CloudTarget
 from .errors import InputMismatch
 from .inbox import QUERY_DEADLINE_S, Inbox
 from .online import Calibrator
@@ -70,6 +71,7 @@ class Service:
         self.solve_failing = ""  # why the last solve failed, until one succeeds
         self.late_queries = 0
         self.pub = session.declare_publisher(keys.calibration_result)
+        self.cloud_target = CloudTarget()  # what --from-clouds takes from each cloud
 
     def declare(self) -> list[Any]:
         puts = [("pose", self.keys.flange_pose), ("blob", self.keys.blob)]
@@ -168,15 +170,13 @@ class Service:
             obs = rosmsg.decode_blob(item)
             self.cal.on_blob(obs.stamp_ns, np.array(obs.position), obs.confidence)
         elif kind == "cloud":
-            from .blob import find_blob
-
             cloud = pointcloud.decode(item)
             rgb = cloud.rgb()
             if rgb is None:
                 raise InputMismatch("camera cloud has no rgb field")
             shape = (cloud.height, cloud.width, 3)
-            blob = find_blob(cloud.xyz().reshape(shape), rgb.reshape(shape))
-            self.cal.on_blob(cloud.stamp_ns, blob.p_cam, blob.confidence)
+            p_cam, confidence = self.cloud_target.find(cloud.xyz().reshape(shape), rgb.reshape(shape))
+            self.cal.on_blob(cloud.stamp_ns, p_cam, confidence)
         elif kind == "pair":
             self.cal.pair_pending()
         elif kind == "query":
@@ -253,8 +253,10 @@ class Service:
         elif op == "remove":
             store.remove(CalibrationRemove.model_validate_json(payload).sample_ids)
             self.samples_reply(query)
-        elif op == "reset":
+        elif op == "reset":  # a payload (solve options) becomes the service's: e.g. the set-up
+            options = CalibrationSolveOptions.model_validate_json(payload) if payload.strip() else None
             store.reset()
+            self.cal.options = options or self.cal.options
             self.cal.result = None
             self.cal.pending = []  # blobs waiting for their poses belong to the old session too
             self.samples_reply(query)
@@ -278,10 +280,14 @@ def main(args: argparse.Namespace) -> int:
     cal = Calibrator(
         store, PairingOptions(tolerance_ns=int(args.tolerance_ms * 1e6)), max(args.min_samples, 3),
         parent_frame=args.parent_frame, child_frame=args.child_frame,
+        options=CalibrationSolveOptions(setup=getattr(args, "setup", "eye-in-hand")),
     )  # fmt: skip
     stop = StopFlag()
     with zenoh.open(zenoh_config(ZenohOptions.from_args(args))) as session:
         svc = Service(cal, session, keys, args.from_clouds, args.query_deadline)
+        svc.cloud_target = CloudTarget(
+            getattr(args, "cloud_target", "blob"), getattr(args, "ball_radius", None)
+        )
         decls = svc.declare()
         worker = run_worker("calibrator", lambda: svc.run(stop))  # first solves the resumed samples
         log.info("calibrator ready on %s (%d samples in %s)", keys.calibrator, len(store.samples), store.path)

@@ -19,9 +19,25 @@ def _add_sim_args(p: argparse.ArgumentParser) -> None:
     g = p.add_argument_group("simulation (--sim)")
     g.add_argument(
         "--sim-scene",
-        choices=("calibration", "board"),
+        choices=("calibration", "board", "eye-to-hand"),
         default="calibration",
-        help="the blob sheet for calibration, or the board with objects (default calibration)",
+        help="the blob sheet for calibration, the board with objects, or eye-to-hand: the camera on a "
+        "fixed mount and a ball on the flange (default calibration)",
+    )
+    g.add_argument(
+        "--sim-T-base-cam",
+        metavar="'x y z qx qy qz qw'|FILE",
+        dest="sim_T_base_cam",
+        help="eye-to-hand scene: the fixed camera's colour optical frame in the base frame (as "
+        "--sim-T-flange-cam; default: 0.75 m in front of the robot, looking back at the workspace)",
+    )
+    g.add_argument(
+        "--sim-ball",
+        nargs=4,
+        type=float,
+        metavar=("X", "Y", "Z", "R"),
+        help="eye-to-hand scene: the ball's centre in the flange frame and its radius, metres "
+        "(default 0 0 0.1 0.025)",
     )
     g.add_argument(
         "--sim-T-flange-cam",
@@ -50,7 +66,7 @@ def _add_sim_args(p: argparse.ArgumentParser) -> None:
     )
     g.add_argument("--sim-board", type=Path, metavar="FILE", help="board YAML/JSON (default: the package's)")
     g.add_argument("--sim-world", type=Path, metavar="FILE",
-                   help="board scene: the world file shared with the arm and the gripper emulator, written "
+                   help="board and eye-to-hand scenes: the world file shared with the arm and the gripper emulator, written "
                         "here when missing (default: $SOFIA_SIM_WORLD); objects are rendered where it says")  # fmt: skip
     g.add_argument(
         "--sim-noise",
@@ -133,10 +149,14 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
 def sim_options(args: argparse.Namespace):  # type: ignore[no-untyped-def]
     from sofia_schemas.sim_world import world_path
 
+    from .sim_fixed import DEFAULT_BALL_FLANGE, DEFAULT_BALL_RADIUS, DEFAULT_T_BASE_CAM
     from .sim_scene import DEFAULT_TARGET, SimOptions, parse_T_flange_cam
 
+    ball = (*DEFAULT_BALL_FLANGE, DEFAULT_BALL_RADIUS) if args.sim_ball is None else args.sim_ball
     return SimOptions(
         scene=args.sim_scene, T_flange_cam=parse_T_flange_cam(args.sim_T_flange_cam),
+        T_base_cam=parse_T_flange_cam(args.sim_T_base_cam, "--sim-T-base-cam", DEFAULT_T_BASE_CAM),
+        ball_flange=tuple(ball[:3]), ball_radius=ball[3],
         target_base=tuple(args.sim_target) if args.sim_target else DEFAULT_TARGET,
         blob_radius=args.sim_blob_radius, seed=args.sim_seed, kind=args.sim_kind, board_file=args.sim_board,
         noise=args.sim_noise != "none",

@@ -48,8 +48,8 @@ class SimRenderer:
         self._cached: tuple[bytes, np.ndarray, np.ndarray] | None = None
 
     def T_base_color(self, T_base_flange: np.ndarray) -> np.ndarray:
-        """(4, 4) colour optical frame in the base frame."""
-        return T_base_flange @ self.world.options.T_flange_cam
+        """(4, 4) colour optical frame in the base frame (on the flange, or on a fixed mount)."""
+        return self.world.T_base_color(T_base_flange)
 
     def clean(self, T_base_flange: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Noise-free depth (Hd, Wd) metres (inf: no hit) and colour (Hc, Wc, 3) uint8; the last
@@ -58,6 +58,7 @@ class SimRenderer:
         key = np.round(T_base_flange, 9).tobytes() + self.world.version.to_bytes(8, "little")
         if self._cached is not None and self._cached[0] == key:
             return self._cached[1], self._cached[2]
+        self.world.at(T_base_flange)  # the eye-to-hand cell's ball where the flange is
         T_base_color = self.T_base_color(T_base_flange)
         depth, _, _ = cast(self.world.raycasting, T_base_color @ self.spec.T_color_depth, self.depth_camera)
         _, ids, points_base = cast(self.world.raycasting, T_base_color, self.color_camera)
@@ -83,6 +84,7 @@ class SimRenderer:
         disparity quantisation, dark-surface holes): a new noise draw, and two ray casts, per frame."""
         from sofia_replay.synth.d435 import StereoModel, cast_camera, stereo_depth
 
+        self.world.at(T_base_flange)
         T_base_depth = self.T_base_color(T_base_flange) @ self.spec.T_color_depth
         cam = synth_camera(self.spec.depth, noise=False)
         c = cast_camera(self.world.raycasting, T_base_depth, cam)

@@ -1,5 +1,6 @@
 """The world the simulated D435 looks at: the calibration blob sheet or the board with objects,
-built with the project's Open3D ray caster (``sofia_replay.synth``), and its ground truth.
+built with the project's Open3D ray caster (``sofia_replay.synth``), or the eye-to-hand cell (a
+fixed camera and a ball on the flange, :mod:`sofia_camera.sim_fixed`), and its ground truth.
 
 Everything is in the robot base frame (metres). The board scene is deterministic in its seed.
 """
@@ -19,9 +20,16 @@ from sofia_schemas.sim_world import WorldFile, WorldObject, WorldState, write_wo
 from sofia_schemas.transforms import as_transforms, make_transform
 
 from .errors import BadOption
+from .sim_fixed import (
+    DEFAULT_BALL_FLANGE,
+    DEFAULT_BALL_RADIUS,
+    DEFAULT_T_BASE_CAM,
+    FixedCameraCell,
+    eye_to_hand_state,
+)
 
-SceneName = Literal["calibration", "board"]
-SCENES: tuple[SceneName, ...] = ("calibration", "board")
+SceneName = Literal["calibration", "board", "eye-to-hand"]
+SCENES: tuple[SceneName, ...] = ("calibration", "board", "eye-to-hand")
 KINDS = ("one", "two", "nonred", "empty", "sort")
 # the lab's sorting task: a yellow, a green and a blue object, and a distractor of another colour
 SORT_COLOURS = (("yellow", (230, 200, 40)), ("green", (40, 160, 60)), ("blue", (30, 80, 200)),
@@ -29,12 +37,14 @@ SORT_COLOURS = (("yellow", (230, 200, 40)), ("green", (40, 160, 60)), ("blue", (
 DEFAULT_TARGET = (0.45, 0.25, TABLE_Z + 0.0005)
 
 
-def parse_T_flange_cam(text: str | None) -> np.ndarray:
-    """(4, 4) ``T_flange_cam`` from ``"x y z qx qy qz qw"`` (metres, quaternion x y z w; commas
+def parse_T_flange_cam(
+    text: str | None, option: str = "--sim-T-flange-cam", default: np.ndarray = DEFAULT_T_FLANGE_CAM
+) -> np.ndarray:
+    """(4, 4) ``T_flange_cam`` (or the transform of ``option``, e.g. ``T_base_cam``) from ``"x y z qx qy qz qw"`` (metres, quaternion x y z w; commas
     allowed) or a YAML/JSON file with ``matrix`` (4x4) or ``translation`` + ``quaternion_xyzw``;
-    None gives the synthetic default. BadOption says what is wrong."""
+    None gives ``default``. BadOption says what is wrong."""
     if text is None:
-        return DEFAULT_T_FLANGE_CAM.copy()
+        return np.array(default, dtype=np.float64)
     parts = text.replace(",", " ").split()
     try:
         if len(parts) == 7:
@@ -42,19 +52,15 @@ def parse_T_flange_cam(text: str | None) -> np.ndarray:
             return make_transform(values[:3], values[3:])
         data: Any = load_json_or_yaml(Path(text))
     except (ValueError, OSError, FileContentError) as e:
-        raise BadOption(
-            "--sim-T-flange-cam", text, f"not 7 numbers 'x y z qx qy qz qw' nor a readable file: {e}"
-        ) from None
+        raise BadOption(option, text, f"not 7 numbers 'x y z qx qy qz qw' nor a readable file: {e}") from None
     if not isinstance(data, dict):
-        raise BadOption("--sim-T-flange-cam", text, "file must hold a mapping")
+        raise BadOption(option, text, "file must hold a mapping")
     try:
         if "matrix" in data:
             return as_transforms(np.array(data["matrix"], float), "matrix", tol=1e-4)
         return make_transform(np.array(data["translation"], float), np.array(data["quaternion_xyzw"], float))
     except (KeyError, ValueError, TypeError) as e:
-        raise BadOption(
-            "--sim-T-flange-cam", text, f"needs 'matrix' or 'translation' + 'quaternion_xyzw': {e}"
-        ) from None
+        raise BadOption(option, text, f"needs 'matrix' or 'translation' + 'quaternion_xyzw': {e}") from None
 
 
 def sort_objects(board: Board, T_base_board: np.ndarray, rng: np.random.Generator) -> list[ObjectTruth]:
@@ -113,6 +119,9 @@ class SimOptions:
     noise: bool = True
     stereo: bool = False  # replay's active-stereo D435 model instead of the simple noise
     world_file: Path | None = None  # the simulated world shared with the arm and the gripper (board scene)
+    T_base_cam: np.ndarray = field(default_factory=lambda: DEFAULT_T_BASE_CAM.copy())  # eye-to-hand mount
+    ball_flange: tuple[float, float, float] = DEFAULT_BALL_FLANGE  # eye-to-hand: ball centre, flange frame
+    ball_radius: float = DEFAULT_BALL_RADIUS
 
     def __post_init__(self) -> None:
         if self.scene not in SCENES:
@@ -122,6 +131,10 @@ class SimOptions:
         if not 0.001 <= self.blob_radius <= 0.1:
             raise BadOption("--sim-blob-radius", self.blob_radius, "must be within [0.001, 0.1] m")
         self.T_flange_cam = as_transforms(np.asarray(self.T_flange_cam, float), "T_flange_cam", tol=1e-4)
+        self.T_base_cam = as_transforms(np.asarray(self.T_base_cam, float), "T_base_cam", tol=1e-4)
+        if not 0.005 <= self.ball_radius <= 0.1 or np.linalg.norm(self.ball_flange) > 0.4:
+            raise BadOption("--sim-ball", [*self.ball_flange, self.ball_radius],
+                            "radius must be within [0.005, 0.1] m and the centre within 0.4 m of the flange")  # fmt: skip
 
 
 class SimWorld:
@@ -129,7 +142,15 @@ class SimWorld:
 
     def __init__(self, options: SimOptions) -> None:
         self.options = options
-        if options.scene == "calibration":
+        self.fixed: FixedCameraCell | None = None
+        if options.scene == "eye-to-hand":
+            state = eye_to_hand_state(options.T_base_cam, options.ball_flange, options.ball_radius)
+            self.fixed = FixedCameraCell(
+                state, None if options.world_file is None else WorldFile(options.world_file)
+            )
+            self.raycasting, self.colour_of = self.fixed.scene_at(np.eye(4))
+            self.scene = None
+        elif options.scene == "calibration":
             self.target = CalibrationTarget(
                 p_base=np.array(options.target_base, float), radius=options.blob_radius
             )
@@ -150,6 +171,18 @@ class SimWorld:
             write_world(self.world.path, world_of(self.scene))
         self.version = 0
 
+    def T_base_color(self, T_base_flange: np.ndarray) -> np.ndarray:
+        """(4, 4) the colour optical frame in the base frame: on the flange, or on the fixed mount."""
+        if self.fixed is not None:
+            return self.fixed.T_base_cam
+        return T_base_flange @ self.options.T_flange_cam
+
+    def at(self, T_base_flange: np.ndarray) -> None:
+        """The eye-to-hand cell's scene with the ball where the flange pose (4, 4) puts it."""
+        if self.fixed is not None:
+            self.fixed.refresh()
+            self.raycasting, self.colour_of = self.fixed.scene_at(T_base_flange)
+
     def refresh(self) -> bool:
         """Rebuild the scene when the world file changed (objects carried or set down); True then."""
         if self.world is None or self.scene is None or not self.world.poll() or self.world.state is None:
@@ -163,7 +196,10 @@ class SimWorld:
         """JSON-able ground truth (base frame, metres)."""
         o = self.options
         out: dict[str, Any] = {"scene": o.scene, "seed": o.seed, "T_flange_cam": o.T_flange_cam.tolist()}
-        if self.scene is None:
+        if self.fixed is not None:
+            out.update(self.fixed.truth())
+            del out["T_flange_cam"]  # no camera on the flange
+        elif self.scene is None:
             out["blob"] = {"p_base": list(map(float, self.target.p_base)), "radius": self.target.radius}
         else:
             out["kind"] = o.kind

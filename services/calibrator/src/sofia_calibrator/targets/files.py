@@ -81,3 +81,42 @@ def read_opencv_pose_pairs(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
     return np.array([a for a, _ in pairs], dtype=np.float64), np.array(
         [b for _, b in pairs], dtype=np.float64
     )
+
+
+def read_grey_images(paths: list[str]) -> list[np.ndarray]:
+    """(h, w) uint8 grey images of image files (PNG, JPEG, ... through OpenCV), one per path."""
+    import cv2
+
+    images = []
+    for p in paths:
+        img = cv2.imread(str(p), cv2.IMREAD_GRAYSCALE)
+        if img is None:
+            raise ParseError(Path(p), None, "not an image file OpenCV can read")
+        images.append(img)
+    return images
+
+
+def read_camera_matrix(text: str) -> np.ndarray:
+    """(3, 3) camera matrix K from ``"fx fy cx cy"`` (pixels) or a YAML/JSON file holding ``K`` or
+    ``k`` (9 numbers or 3x3, as a ROS CameraInfo) or ``fx``, ``fy``, ``cx``, ``cy``."""
+    from sofia_schemas.files import FileContentError, load_json_or_yaml
+
+    parts = text.replace(",", " ").split()
+    try:
+        if len(parts) == 4:
+            fx, fy, cx, cy = (float(v) for v in parts)
+        else:
+            data = load_json_or_yaml(Path(text))
+            key = next((k for k in ("K", "k", "camera_matrix") if isinstance(data, dict) and k in data), None)
+            if key is not None:
+                K = np.asarray(data[key], dtype=np.float64).reshape(3, 3)
+                fx, fy, cx, cy = K[0, 0], K[1, 1], K[0, 2], K[1, 2]
+            else:
+                fx, fy, cx, cy = (float(data[k]) for k in ("fx", "fy", "cx", "cy"))
+    except (ValueError, OSError, FileContentError, KeyError, TypeError) as e:
+        raise ParseError(
+            Path(text), None, f"not 'fx fy cx cy' nor a file with K or fx, fy, cx, cy: {e}"
+        ) from None
+    if not all(np.isfinite([fx, fy, cx, cy])) or fx <= 0 or fy <= 0:
+        raise ParseError(Path(text), None, f"focal lengths must be positive, got fx {fx}, fy {fy}")
+    return np.array([[fx, 0.0, cx], [0.0, fy, cy], [0.0, 0.0, 1.0]])

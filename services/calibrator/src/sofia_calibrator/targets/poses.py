@@ -5,7 +5,9 @@ target fixed in the base frame. OpenCV's ``calibrateHandEye`` (Tsai, Park, Horau
 Daniilidis) gives the starts and the named baseline; the result is then refined jointly over X and
 T_base_target on each view's pose discrepancy in the camera frame (target origin, metres; rotation,
 rad), each part weighted by its noise level estimated from the residuals (a first pass weighs a
-rotation as the target's ``size_m``), and the 1-sigma comes from the Jacobian.
+rotation as the target's ``size_m``), and the 1-sigma comes from the Jacobian. OpenCV's
+``calibrateRobotWorldHandEye`` (Shah, Li), which solves X and the target's pose together, adds two
+more starts and baselines (``RW_SHAH``, ``RW_LI``).
 Eye-to-hand is the same problem with the flange poses inverted (see
 :mod:`sofia_calibrator.eye_to_hand`): X = T_base_cam, the target fixed on the flange.
 """
@@ -21,6 +23,7 @@ from scipy.spatial.transform import Rotation
 from ..errors import InputMismatch, TooFewSamples
 
 OPENCV_METHODS = ("TSAI", "PARK", "HORAUD", "ANDREFF", "DANIILIDIS")
+ROBOT_WORLD_METHODS = ("SHAH", "LI")  # calibrateRobotWorldHandEye: X and the target's pose together
 DEFAULT_SIZE_M = 0.05
 MIN_PAIRS = 3
 
@@ -52,9 +55,10 @@ def _validate(T_base_flange: np.ndarray, T_cam_target: np.ndarray) -> tuple[np.n
 
 
 def opencv_hand_eye(A: np.ndarray, B: np.ndarray) -> dict[str, np.ndarray]:
-    """X by each of OpenCV's ``calibrateHandEye`` methods from A (n, 4, 4) T_base_flange and
-    B (n, 4, 4) T_cam_target (gripper2base, target2cam in OpenCV's words); methods that fail or
-    return no rotation (a reflection) are left out."""
+    """X by each of OpenCV's ``calibrateHandEye`` methods and its ``calibrateRobotWorldHandEye``
+    ones (named ``RW_SHAH``, ``RW_LI``) from A (n, 4, 4) T_base_flange and B (n, 4, 4) T_cam_target
+    (gripper2base, target2cam in OpenCV's words); methods that fail or return no rotation (a
+    reflection) are left out."""
     import cv2
 
     out = {}
@@ -70,6 +74,19 @@ def opencv_hand_eye(A: np.ndarray, B: np.ndarray) -> dict[str, np.ndarray]:
         X[:3, :3], X[:3, 3] = R, np.ravel(t)
         if np.isfinite(X).all() and abs(np.linalg.det(X[:3, :3]) - 1.0) < 1e-3:  # a rotation
             out[name] = X
+    A_inv = np.linalg.inv(A)  # base2gripper; B is world2cam (the target as the world)
+    for name in ROBOT_WORLD_METHODS:
+        try:
+            *_, R, t = cv2.calibrateRobotWorldHandEye(
+                list(B[:, :3, :3]), list(B[:, :3, 3]), list(A_inv[:, :3, :3]), list(A_inv[:, :3, 3]),
+                method=getattr(cv2, f"CALIB_ROBOT_WORLD_HAND_EYE_{name}"),
+            )  # fmt: skip
+        except cv2.error:
+            continue
+        T_cam_flange = np.eye(4)
+        T_cam_flange[:3, :3], T_cam_flange[:3, 3] = R, np.ravel(t)
+        if np.isfinite(T_cam_flange).all() and abs(np.linalg.det(R) - 1.0) < 1e-3:
+            out[f"RW_{name}"] = np.asarray(np.linalg.inv(T_cam_flange), dtype=np.float64)
     return out
 
 

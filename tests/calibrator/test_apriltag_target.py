@@ -1,0 +1,82 @@
+"""AprilTag target: rendered views detected by OpenCV's aruco AprilTag dictionaries, the tag poses
+recovered, the hand-eye transform as accurate as OpenCV's best method on the same views, from
+Python and from the command; a view without the tag says which."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pytest
+from sofia_calibrator.any_target import calibrate_target
+from sofia_calibrator.fitting.diagnostics import error6
+from sofia_calibrator.errors import InputMismatch
+from sofia_calibrator.fitting.simulate import random_T_flange_cam, views_of
+from sofia_calibrator.targets.apriltag import TagNotFound, TagSpec, render_tag_view, tag_poses
+from sofia_calibrator.targets.poses import hand_eye_from_poses
+
+from ..conftest import SOFIA
+
+cv2 = pytest.importorskip("cv2")
+
+K = np.array([[600.0, 0.0, 320.0], [0.0, 600.0, 240.0], [0.0, 0.0, 1.0]])
+TAG = TagSpec(side_m=0.1, tag_id=7)
+
+
+def _views(n: int, seed: int):  # type: ignore[no-untyped-def]
+    """(X true T_flange_cam, T_base_flange (n, 4, 4), true T_cam_tag (n, 4, 4), images)."""
+    rng = np.random.default_rng(seed)
+    X = random_T_flange_cam(rng)
+    centre = np.array([0.5, 0.0, 0.0])
+    Y = np.eye(4)
+    Y[:3, :3] = np.diag([1.0, -1.0, -1.0])  # the tag's z into the table: its face up
+    Y[:3, 3] = centre
+    T_base_cam = views_of(centre, n, rng, distance=(0.35, 0.5), max_off_axis_deg=35, max_image_offset_deg=8)
+    B = np.linalg.inv(T_base_cam) @ Y
+    images = [np.clip(render_tag_view(b, K, (640, 480), TAG) + rng.normal(0, 3, (480, 640)), 0, 255).astype(np.uint8)
+              for b in B]  # fmt: skip
+    return X, T_base_cam @ np.linalg.inv(X), B, images
+
+
+def test_rendered_apriltag_views_calibrate() -> None:
+    X, A, B, images = _views(10, 40)
+    measured = tag_poses(images, K, TAG)
+    assert np.abs(measured[:, :3, 3] - B[:, :3, 3]).max() < 3e-3
+    fit = hand_eye_from_poses(A, measured, TAG.side_m)
+    ours = np.linalg.norm(error6(fit.X, X)[:3])
+    best = min(np.linalg.norm(error6(Xb, X)[:3]) for Xb in fit.baselines.values())
+    assert ours < 5e-3 and ours <= 1.1 * best, (ours, best)
+    cal = calibrate_target("apriltag", T_base_flange=A, images=images, K=K, tag=TAG)
+    np.testing.assert_allclose(cal.T_flange_cam, fit.X, atol=1e-6)
+
+
+def test_a_view_without_the_tag_and_a_bad_family_are_named() -> None:
+    _, A, _, images = _views(4, 41)
+    images[1] = np.full_like(images[1], 255)
+    with pytest.raises(TagNotFound, match="view 1: tag 7 of DICT_APRILTAG_36h11 not found"):
+        calibrate_target("apriltag", T_base_flange=A, images=images, K=K, tag=TAG)
+    with pytest.raises(InputMismatch, match="not one of OpenCV's DICT_APRILTAG"):
+        tag_poses(images, K, TagSpec(family="DICT_4X4_50"))
+
+
+def test_the_command_calibrates_an_apriltag(tmp_path: Path) -> None:
+    from scipy.spatial.transform import Rotation
+
+    X, A, _, images = _views(8, 42)
+    names = []
+    for i, img in enumerate(images):
+        names.append(str(tmp_path / f"view{i}.png"))
+        cv2.imwrite(names[-1], img)
+    rows = np.c_[Rotation.from_matrix(A[:, :3, :3]).as_euler("xyz"), 1e3 * A[:, :3, 3]]
+    np.savetxt(tmp_path / "poses.dat", rows, delimiter=",")
+    out = subprocess.run(
+        [SOFIA, "calibrate", "--target", "apriltag", "--images", *names, "--camera-matrix", "600 600 320 240",
+         "--tag-size", "0.1", "--tag-id", "7", "--euler-poses", str(tmp_path / "poses.dat"), "--json"],
+        capture_output=True, text=True, timeout=120,
+    )  # fmt: skip
+    assert out.returncode == 0, out.stderr
+    msg = json.loads(out.stdout)
+    assert msg["parent_frame"] == "panda_link8" and "pose target" in msg["correction_reason"]
+    assert np.linalg.norm(np.array(msg["translation"]) - X[:3, 3]) < 5e-3

@@ -233,7 +233,7 @@ class Emulator:
         self.packets += 1
         if not ins.valid:
             return self._status(pk.ERR_CRC if self.protocol == 2 else pk.ERRBIT1_CHECKSUM) if mine else None
-        params, error, kind = execute(self, ins)
+        params, error, kind = execute(s, self.dxl_id, ins)
         if params is None:
             return None
         # "Status Return Level(68)": 0 answers PING only, 1 PING and READ (Sync/Bulk Read are

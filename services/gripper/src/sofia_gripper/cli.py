@@ -52,9 +52,9 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
         "--object-width", type=float, metavar="MM", help="width of the emulated object, mm (--emulate)"
     )
 
-    e = add_command(gs, "emulate", _emulate, "run an MX-64 emulator on a pseudo-terminal (prints the tty path; "
-                    "faults from stdin: object MM|none, overheat, overload, noreply on|off, corrupt on|off, "
-                    "unplug, replug, clear)")  # fmt: skip
+    e = add_command(gs, "emulate", _emulate, "run an MX-64 emulator on a pseudo-terminal (prints the tty "
+                    "path; faults from stdin: object MM|none, overheat, overload, noreply on|off, corrupt "
+                    "on|off, unplug, replug, clear)")  # fmt: skip
     e.add_argument("--object-width", type=float, metavar="MM", help="object between the fingers, mm")
     e.add_argument(
         "--protocol",

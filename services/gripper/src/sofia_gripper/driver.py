@@ -2,8 +2,9 @@
 
 One thread owns the state loop: one Sync/Bulk Read per cycle, decoded into a
 :class:`GripperState` and handed to ``on_state``. Commands (:mod:`.commands`, on top of this
-module) write goals through :attr:`GripperDriver.servo` and wait for the loop's states. When the serial line fails the state says ``disconnected`` with no
-stale values, and the loop reconnects every ``reconnect_period_s``.
+module) write goals through :attr:`GripperDriver.servo` (:mod:`.servo`) and wait for the loop's
+states. When the serial line fails the state says ``disconnected`` with no stale values, and the
+loop reconnects every ``reconnect_period_s``.
 """
 
 from __future__ import annotations

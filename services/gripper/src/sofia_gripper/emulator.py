@@ -20,13 +20,14 @@ import time
 import tty
 from pathlib import Path
 
+from dynamixel_sdk.protocol1_packet_handler import ERRBIT_OVERLOAD
 from sofia_schemas.sim_world import WorldFile, world_path
 
 from . import packets as pk
 from .config import GripperConfig
 from .control_table import Protocol
 from .emulator_instructions import execute
-from .emulator_servo import HW_OVERLOAD, P1_OVERLOAD, Mx64Servo
+from .emulator_servo import HW_OVERLOAD, Mx64Servo
 
 log = logging.getLogger(__name__)
 
@@ -130,7 +131,7 @@ class Emulator:
 
     def inject_overload(self) -> None:
         with self.lock:
-            self.servo.hw_error |= HW_OVERLOAD if self.protocol == 2 else P1_OVERLOAD
+            self.servo.hw_error |= HW_OVERLOAD if self.protocol == 2 else ERRBIT_OVERLOAD
 
     def clear_faults(self) -> None:
         """Cool down and drop the overload cause (the servo still needs a reboot to clear its error)."""

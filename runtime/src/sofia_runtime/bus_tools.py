@@ -84,9 +84,7 @@ def _print(key: str, payload: bytes, encoding: str, as_json: bool) -> None:
 
 
 def echo(args: argparse.Namespace) -> int:
-    stop = StopFlag()
-    count = 0
-    lock = threading.Lock()
+    stop, count, lock = StopFlag(), 0, threading.Lock()
 
     def on_sample(sample: zenoh.Sample) -> None:
         nonlocal count
@@ -111,11 +109,8 @@ def echo(args: argparse.Namespace) -> int:
 
 def query(args: argparse.Namespace) -> int:
     if args.payload is not None and not args.payload.is_file():
-        print(
-            f"sofia query: error: --payload file {str(args.payload)!r} does not exist "
-            "(`sofia replay export FILE.mcap --out cloud.cdr` writes one)",
-            file=sys.stderr,
-        )
+        print(f"sofia query: error: --payload file {str(args.payload)!r} does not exist "
+              "(`sofia replay export FILE.mcap --out cloud.cdr` writes one)", file=sys.stderr)  # fmt: skip
         return 2
     payload = args.payload.read_bytes() if args.payload else (args.data.encode() if args.data else None)
     n_ok = n_err = 0

@@ -50,9 +50,8 @@ def register_schemas(sub: argparse._SubParsersAction) -> None:  # type: ignore[t
     s = add_group(sub, "schemas", "message schemas", description="The JSON Schemas of the bus messages.")
     e = add_command(s, "export", _export, "write the JSON Schema of every bus message into DIR",
                     "the folder and the files written, one object")  # fmt: skip
-    e.add_argument(
-        "dir", type=Path, help="folder to write <Message>.schema.json files into (made if missing)"
-    )
+    e.add_argument("dir", type=Path,
+                   help="folder to write <Message>.schema.json files into (made if missing)")  # fmt: skip
 
 
 def _export(args: argparse.Namespace) -> int:

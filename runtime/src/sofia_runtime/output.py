@@ -29,8 +29,7 @@ def add_json_option(parser: argparse.ArgumentParser, what: str = "one object", t
 
 
 def add_group(sub: SubParsers, name: str, help: str, metavar: str = "ACTION", **kwargs: Any) -> SubParsers:
-    """Command group ``name`` (``sofia NAME ACTION``); returns where its actions are added.
-    ``kwargs`` go to ``add_parser`` (``description``); the action chosen is ``args.<name>_cmd``."""
+    """Group ``sofia NAME ACTION``: where its actions are added (the one chosen: ``args.<name>_cmd``)."""
     parser = sub.add_parser(name, help=help, **kwargs)
     return parser.add_subparsers(dest=f"{name}_cmd", required=True, metavar=metavar)
 

@@ -14,7 +14,6 @@ import pytest
 from dynamixel_sdk import COMM_RX_TIMEOUT, COMM_SUCCESS, GroupSyncRead, PacketHandler, PortHandler
 from sofia_gripper import Emulator, Gripper, GripperError, NotReady
 from sofia_gripper.control_table import WATCHDOG_TRIPPED
-from sofia_gripper.startup import recover_watchdog
 from sofia_schemas.messages import GripperCommand as Cmd
 
 from .conftest import make_config, wait_until
@@ -59,7 +58,7 @@ def test_bus_watchdog_trip_right_after_the_goal_resends_it(
     """ "Bus Watchdog(98)": a trip drops the goal just written. When the host stalls right after
     the goal and the state loop clears the trip before the command waits for the motion, the
     command still sends the goal again instead of reporting the fingers blocked where they stand."""
-    set_goal = gripper.set_goal
+    set_goal = gripper.servo.set_goal
 
     def set_goal_then_stall(ticks: float) -> int:
         goal = set_goal(ticks)
@@ -67,10 +66,10 @@ def test_bus_watchdog_trip_right_after_the_goal_resends_it(
         with gripper.bus.lock:  # the host stalls before the servo moved
             emulator.servo.advance(time.monotonic())
             time.sleep(0.5)
-        assert recover_watchdog(gripper)  # the state loop sees the trip first
+        assert gripper.servo.recover_watchdog()  # the state loop sees the trip first
         return goal
 
-    monkeypatch.setattr(gripper, "set_goal", set_goal_then_stall)
+    monkeypatch.setattr(gripper.servo, "set_goal", set_goal_then_stall)
     emulator.set_object(40.0)
     r = gripper.execute(Cmd(action="grasp"))
     assert r.ok and r.grasped, r.reason
@@ -165,8 +164,10 @@ def test_driver_clamps_to_the_calibrated_range_whatever_the_servo_limits(emulato
     g.start()
     try:
         wait_until(lambda: g.state.connected, 3.0, "connected despite the servo's limits")
-        assert g.limits == (g.config.open_ticks, g.config.closed_ticks)
-        assert g.set_goal(10_000) == g.config.closed_ticks and g.set_goal(-5) == g.config.open_ticks
+        assert g.servo.limits == (g.config.open_ticks, g.config.closed_ticks)
+        assert (
+            g.servo.set_goal(10_000) == g.config.closed_ticks and g.servo.set_goal(-5) == g.config.open_ticks
+        )
     finally:
         g.close()
 

@@ -83,8 +83,8 @@ def test_bus_watchdog_stops_the_motor_when_the_driver_dies(emulator: Emulator) -
     g = Gripper(make_config(emulator.path, watchdog_ms=100))
     g.start()
     wait_until(lambda: g.state.connected, 3.0, "connected")
-    g.set_speed(0.05)
-    g.set_goal(g.config.closed_ticks)
+    g.servo.set_speed(0.05)
+    g.servo.set_goal(g.config.closed_ticks)
     time.sleep(0.2)
     g.close(torque_off=False)  # as if the service was killed: no more packets
     time.sleep(0.3)

@@ -20,18 +20,20 @@ def test_protocol1_checksum_matches_the_emanual_ping_example() -> None:
     assert pk.instruction_packet(1, 1, pk.INST_PING) == bytes.fromhex("FFFF010201FB")
 
 
-@given(st.binary(max_size=64))
-def test_crc16_equals_the_sdk_crc(data: bytes) -> None:
-    assert pk.crc16(data) == Protocol2PacketHandler().updateCRC(0, list(data), len(data))
-
-
-@given(st.binary(max_size=40))
-def test_stuffing_round_trips_and_leaves_no_header_in_the_body(params: bytes) -> None:
-    body = bytes([pk.INST_WRITE]) + params
-    stuffed = pk.stuff(body)
-    assert pk.unstuff(stuffed) == body
-    framed = b"\xff\xff\xfd\x00" + stuffed
-    assert framed.count(b"\xff\xff\xfd") - framed.count(b"\xff\xff\xfd\xfd") == 1
+@pytest.mark.parametrize("protocol", [1, 2])
+@given(params=st.binary(max_size=40))
+def test_framing_round_trips_and_leaves_no_header_in_the_body(protocol: int, params: bytes) -> None:
+    packet = pk.instruction_packet(protocol, 1, pk.INST_WRITE, params)
+    if protocol == 2:
+        assert packet.count(b"\xff\xff\xfd") - packet.count(b"\xff\xff\xfd\xfd") == 1
+    (got,) = pk.PacketParser(protocol).feed(packet)
+    assert (got.dxl_id, got.inst, got.params, got.valid, got.size) == (
+        1,
+        pk.INST_WRITE,
+        params,
+        True,
+        len(packet),
+    )
 
 
 @pytest.mark.parametrize("protocol", [1, 2])
@@ -52,7 +54,8 @@ def test_status_packet_destuffs_with_the_sdk() -> None:
     params = bytes([0xFF, 0xFF, 0xFD, 0x01])
     status = pk.status_packet(2, 1, 0, params)
     assert len(status) == 7 + 2 + len(params) + 1 + 2  # one stuffing byte
-    assert pk.crc16(status[:-2]) == status[-2] | (status[-1] << 8)
-    rx = Protocol2PacketHandler().removeStuffing(list(status))
+    sdk = Protocol2PacketHandler()
+    assert sdk.updateCRC(0, status[:-2], len(status) - 2) == status[-2] | (status[-1] << 8)
+    rx = sdk.removeStuffing(list(status))
     length = rx[5] | (rx[6] << 8)
     assert bytes(rx[7 : 7 + length - 2]) == bytes([pk.INST_STATUS, 0]) + params

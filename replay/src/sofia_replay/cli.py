@@ -12,7 +12,7 @@ import logging
 import time
 from pathlib import Path
 
-from sofia_runtime.output import add_json_option, emit
+from sofia_runtime.output import add_command, add_group, emit
 from sofia_runtime.zenoh_config import ZenohOptions, add_zenoh_args, open_session
 from sofia_schemas.keys import default_robot
 
@@ -20,14 +20,11 @@ log = logging.getLogger("sofia.replay")
 
 
 def register_replay(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
-    p = sub.add_parser(
-        "replay", help="play, inspect, convert and export recordings (MCAP, ROS 1 bags)",
-        description="Stream MCAP recordings onto the bus, summarise them, convert the lab's ROS 1 bags "
-        "and export single messages (e.g. a cloud for `sofia query --payload`).",
-    )  # fmt: skip
-    s = p.add_subparsers(dest="replay_cmd", required=True, metavar="ACTION")
+    s = add_group(sub, "replay", "play, inspect, convert and export recordings (MCAP, ROS 1 bags)",
+                  description="Stream MCAP recordings onto the bus, summarise them, convert the lab's ROS 1 "
+                  "bags and export single messages (e.g. a cloud for `sofia query --payload`).")  # fmt: skip
 
-    play = s.add_parser("play", help="stream an MCAP recording to its Zenoh keys")
+    play = add_command(s, "play", _play, "stream an MCAP recording to its Zenoh keys")
     play.add_argument("file", type=Path, help="MCAP file")
     speed = play.add_mutually_exclusive_group()
     speed.add_argument("--rate", type=float, default=1.0, metavar="X",
@@ -67,17 +64,17 @@ def register_replay(sub: argparse._SubParsersAction) -> None:  # type: ignore[ty
         "or decompression while playing (needs their size in RAM, logged; default: off, read lazily)",
     )  # fmt: skip
     add_zenoh_args(play)
-    play.set_defaults(func=_play)
 
-    info = s.add_parser("info", help="topics, counts, schemas and duration of an MCAP file")
+    info = add_command(
+        s, "info", _info, "topics, counts, schemas and duration of an MCAP file", "the summary, one object"
+    )
     info.add_argument("file", type=Path, help="MCAP file")
-    add_json_option(info, "the summary, one object")
     info.add_argument(
         "--truth", action="store_true", help="also print the ground truth metadata (default: off)"
     )
-    info.set_defaults(func=_info)
 
-    conv = s.add_parser("convert", help="convert a ROS 1 bag (e.g. perception.bag) to MCAP")
+    conv = add_command(s, "convert", _convert, "convert a ROS 1 bag (e.g. perception.bag) to MCAP",
+                       "the counts per topic, one object")  # fmt: skip
     conv.add_argument("input", type=Path, help="ROS 1 .bag")
     conv.add_argument("output", type=Path, help="MCAP file to write (not written when nothing converts)")
     conv.add_argument("--rename", action="append", default=[], metavar="IN=OUT",
@@ -89,11 +86,10 @@ def register_replay(sub: argparse._SubParsersAction) -> None:  # type: ignore[ty
                       help="convert only TOPIC, repeatable (default: every topic of a converted type)")  # fmt: skip
     conv.add_argument("--compression", choices=["zstd", "lz4", "none"], default="zstd",
                       help="chunk compression of the MCAP (default zstd)")  # fmt: skip
-    add_json_option(conv, "the counts per topic, one object")
-    conv.set_defaults(func=_convert)
 
-    exp = s.add_parser(
-        "export", help="write one recorded message's payload (CDR bytes) to a file",
+    exp = add_command(
+        s, "export", _export, "write one recorded message's payload (CDR bytes) to a file",
+        "the message exported, one object",
         description="Write the payload of one message exactly as recorded, e.g. a cloud to send with "
         "`sofia query sofia/panda/detector/detect --payload cloud.cdr`.",
     )  # fmt: skip
@@ -103,8 +99,6 @@ def register_replay(sub: argparse._SubParsersAction) -> None:  # type: ignore[ty
     exp.add_argument("--index", type=int, default=0, metavar="N",
                      help="which message of the topic, 0 = first, -1 = last (default 0)")  # fmt: skip
     exp.add_argument("--out", type=Path, required=True, metavar="FILE", help="file to write (e.g. cloud.cdr)")
-    add_json_option(exp, "the message exported, one object")
-    exp.set_defaults(func=_export)
 
 
 def _play(args: argparse.Namespace) -> int:
@@ -182,13 +176,11 @@ def _export(args: argparse.Namespace) -> int:
 
 # --- synthetic data ---------------------------------------------------------------------------------
 def register_synth(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
-    p = sub.add_parser(
-        "synth", help="render synthetic SofIA recordings (needs open3d)",
-        description="Render synthetic MCAP recordings with D435-like noise and their ground truth.",
-    )  # fmt: skip
-    s = p.add_subparsers(dest="synth_cmd", required=True, metavar="KIND")
+    s = add_group(sub, "synth", "render synthetic SofIA recordings (needs open3d)", metavar="KIND",
+                  description="Render synthetic MCAP recordings with D435-like noise and their ground truth.")  # fmt: skip
 
-    sc = s.add_parser("scenes", help="board scenes with objects, clouds in base and camera frame")
+    sc = add_command(s, "scenes", _synth_scenes, "board scenes with objects, clouds in base and camera frame",
+                     "the file written, one object")  # fmt: skip
     sc.add_argument("output", type=Path, help="MCAP file to write")
     sc.add_argument("--kind", default="mixed", choices=["one", "empty", "nonred", "two", "mixed"],
                     help="objects per scene: one on a red field, empty board, one on a non-red field, "
@@ -201,10 +193,9 @@ def register_synth(sub: argparse._SubParsersAction) -> None:  # type: ignore[typ
     sc.add_argument("--board", type=Path, default=None, help="board YAML/JSON (default: the shipped board)")
     sc.add_argument("--frames", choices=["base", "camera", "both"], default="both",
                     help="clouds in the base frame (/pc_glob), camera frame, or both (default both)")  # fmt: skip
-    add_json_option(sc, "the file written, one object")
-    sc.set_defaults(func=_synth_scenes)
 
-    cal = s.add_parser("calibration", help="a hand-eye calibration session (blob target)")
+    cal = add_command(s, "calibration", _synth_calibration, "a hand-eye calibration session (blob target)",
+                      "the file written, one object")  # fmt: skip
     cal.add_argument("output", type=Path, help="MCAP file to write")
     cal.add_argument("--n-poses", type=int, default=12, metavar="N",
                      help="number of robot poses of the session (default 12)")  # fmt: skip
@@ -212,8 +203,6 @@ def register_synth(sub: argparse._SubParsersAction) -> None:  # type: ignore[typ
     cal.add_argument("--seed", type=int, default=0, help="random seed of the poses and noise (default 0)")
     cal.add_argument("--no-clouds", action="store_true",
                      help="only poses and blob observations, no camera clouds (default: with clouds)")  # fmt: skip
-    add_json_option(cal, "the file written, one object")
-    cal.set_defaults(func=_synth_calibration)
 
 
 def _synth_scenes(args: argparse.Namespace) -> int:

@@ -17,7 +17,7 @@ from sofia_schemas.messages import ServiceStatus
 from .client import QueryError, ask, is_timeout
 from .client import query as query_replies
 from .decode import describe
-from .output import add_json_option, emit
+from .output import add_command, emit
 from .service import StopFlag
 from .zenoh_config import ZenohOptions, add_zenoh_args, resolve, zenoh_config
 
@@ -26,65 +26,52 @@ EXIT_DEGRADED = 3  # `sofia health`: the service answers but says it is degraded
 
 
 def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
-    p = sub.add_parser(
-        "echo", help="print what arrives on a key expression",
-        description="Print what arrives on a key expression: JSON pretty-printed, point clouds summarised. "
-        "Exit 1 when --count messages did not arrive before --timeout.",
-    )  # fmt: skip
+    p = add_command(sub, "echo", echo, "print what arrives on a key expression",
+                    "one object per message and line", description="Print what arrives on a key expression: "
+                    "JSON pretty-printed, point clouds summarised. Exit 1 when --count messages did not arrive "
+                    "before --timeout.")  # fmt: skip
     p.add_argument("key", help="key expression, e.g. 'sofia/panda/detector/detections' or 'sofia/**'")
-    p.add_argument(
-        "--count", type=int, default=0, metavar="N", help="stop after N messages (default 0: until Ctrl-C)"
-    )
-    p.add_argument(
-        "--timeout", type=float, default=0.0, metavar="S", help="stop after S seconds (default 0: no limit)"
-    )
-    add_json_option(p, "one object per message and line")
+    p.add_argument("--count", type=int, default=0, metavar="N",
+                   help="stop after N messages (default 0: until Ctrl-C)")  # fmt: skip
+    p.add_argument("--timeout", type=float, default=0.0, metavar="S",
+                   help="stop after S seconds (default 0: no limit)")  # fmt: skip
     add_zenoh_args(p)
-    p.set_defaults(func=echo)
 
-    p = sub.add_parser(
-        "query", help="send a query and print the replies",
-        description="Send a query and print every reply. Exit 1 on an error reply or no reply, 2 when "
-        "the --payload file is missing.",
-    )  # fmt: skip
+    p = add_command(sub, "query", query, "send a query and print the replies", "one object per reply and line",
+                    description="Send a query and print every reply. Exit 1 on an error reply or no reply, "
+                    "2 when the --payload file is missing.")  # fmt: skip
     p.add_argument("key", help="e.g. sofia/panda/detector/detect")
     g = p.add_mutually_exclusive_group()
-    g.add_argument("--payload", type=Path, metavar="FILE",
-                   help="file whose bytes are the query payload, e.g. a cloud from `sofia replay export` "
-                   "(default: no payload)")  # fmt: skip
+    g.add_argument("--payload", type=Path, metavar="FILE", help="file whose bytes are the query payload, "
+                   "e.g. a cloud from `sofia replay export` (default: no payload)")  # fmt: skip
     g.add_argument("--data", help="the query payload as a string, e.g. JSON (default: no payload)")
-    p.add_argument(
-        "--timeout", type=float, default=10.0, metavar="S", help="seconds to wait for replies (default 10)"
-    )
-    add_json_option(p, "one object per reply and line")
+    p.add_argument("--timeout", type=float, default=10.0, metavar="S",
+                   help="seconds to wait for replies (default 10)")  # fmt: skip
     add_zenoh_args(p)
-    p.set_defaults(func=query)
 
-    p = sub.add_parser(
-        "health", help="exit 0 when SERVICE answers its status and is healthy",
-        description="Ask SERVICE for its status. Exit 0 when it is ok, 3 when it is degraded (0 with "
-        "--degraded-ok), 1 when it is in error or does not answer.",
-    )  # fmt: skip
+    p = add_command(sub, "health", health, "exit 0 when SERVICE answers its status and is healthy",
+                    "the service's status, one object", description="Ask SERVICE for its status. Exit 0 when "
+                    "it is ok, 3 when it is degraded (0 with --degraded-ok), 1 when it is in error or does not "
+                    "answer.")  # fmt: skip
     p.add_argument("service", help="detector, calibrator, gripper, replay")
     p.add_argument("--degraded-ok", action="store_true",
                    help="exit 0 on degraded too (e.g. a detector before its first calibration)")  # fmt: skip
     add_robot_arg(p)
-    p.add_argument(
-        "--timeout", type=float, default=5.0, metavar="S", help="seconds to wait for the status (default 5)"
-    )
-    add_json_option(p, "the service's status, one object")
+    p.add_argument("--timeout", type=float, default=5.0, metavar="S",
+                   help="seconds to wait for the status (default 5)")  # fmt: skip
     add_zenoh_args(p)
-    p.set_defaults(func=health)
 
-    p = sub.add_parser(
-        "router", help="run a Zenoh router (what `sofia up` starts)",
+    p = add_command(
+        sub,
+        "router",
+        router,
+        "run a Zenoh router (what `sofia up` starts)",
         description="A Zenoh router on its own, until Ctrl-C; --listen sets where it listens.",
-    )  # fmt: skip
+    )
     add_zenoh_args(p)
     for action in p._actions:  # a router is always in router mode: the option is not offered
         if action.dest == "zenoh_mode":
             action.help = argparse.SUPPRESS
-    p.set_defaults(func=router)
 
 
 def _print(key: str, payload: bytes, encoding: str, as_json: bool) -> None:
@@ -97,9 +84,7 @@ def _print(key: str, payload: bytes, encoding: str, as_json: bool) -> None:
 
 
 def echo(args: argparse.Namespace) -> int:
-    stop = StopFlag()
-    count = 0
-    lock = threading.Lock()
+    stop, count, lock = StopFlag(), 0, threading.Lock()
 
     def on_sample(sample: zenoh.Sample) -> None:
         nonlocal count
@@ -124,11 +109,8 @@ def echo(args: argparse.Namespace) -> int:
 
 def query(args: argparse.Namespace) -> int:
     if args.payload is not None and not args.payload.is_file():
-        print(
-            f"sofia query: error: --payload file {str(args.payload)!r} does not exist "
-            "(`sofia replay export FILE.mcap --out cloud.cdr` writes one)",
-            file=sys.stderr,
-        )
+        print(f"sofia query: error: --payload file {str(args.payload)!r} does not exist "
+              "(`sofia replay export FILE.mcap --out cloud.cdr` writes one)", file=sys.stderr)  # fmt: skip
         return 2
     payload = args.payload.read_bytes() if args.payload else (args.data.encode() if args.data else None)
     n_ok = n_err = 0

@@ -20,7 +20,7 @@ from pathlib import Path
 
 from sofia_schemas.messages import ALL_MESSAGES
 
-from .output import add_json_option, emit
+from .output import add_command, add_group, emit
 
 log = logging.getLogger("sofia")
 
@@ -47,14 +47,11 @@ def sofia_version() -> str:
 
 
 def register_schemas(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
-    p = sub.add_parser("schemas", help="message schemas", description="The JSON Schemas of the bus messages.")
-    s = p.add_subparsers(dest="schemas_cmd", required=True, metavar="ACTION")
-    e = s.add_parser("export", help="write the JSON Schema of every bus message into DIR")
-    e.add_argument(
-        "dir", type=Path, help="folder to write <Message>.schema.json files into (made if missing)"
-    )
-    add_json_option(e, "the folder and the files written, one object")
-    e.set_defaults(func=_export)
+    s = add_group(sub, "schemas", "message schemas", description="The JSON Schemas of the bus messages.")
+    e = add_command(s, "export", _export, "write the JSON Schema of every bus message into DIR",
+                    "the folder and the files written, one object")  # fmt: skip
+    e.add_argument("dir", type=Path,
+                   help="folder to write <Message>.schema.json files into (made if missing)")  # fmt: skip
 
 
 def _export(args: argparse.Namespace) -> int:

@@ -2,7 +2,8 @@
 JSON for machines: one object per result on one line (a command that prints a stream of results
 prints one object per line). Errors and progress go to stderr in both cases.
 
-A command adds the option with :func:`add_json_option` and prints with :func:`emit`.
+A package declares its commands with :func:`add_group` and :func:`add_command` (which adds the
+option, or :func:`add_json_option` does) and prints with :func:`emit`.
 """
 
 from __future__ import annotations
@@ -16,6 +17,7 @@ from typing import Any
 from pydantic import BaseModel
 
 JSON_HELP = "print JSON for machines"  # every --json help starts with this
+SubParsers = argparse._SubParsersAction  # type: ignore[type-arg]
 
 
 def add_json_option(parser: argparse.ArgumentParser, what: str = "one object", text: str = "text") -> None:
@@ -24,6 +26,23 @@ def add_json_option(parser: argparse.ArgumentParser, what: str = "one object", t
     parser.add_argument(
         "--json", action="store_true", help=f"{JSON_HELP}: {what} (default: {text} for people)"
     )
+
+
+def add_group(sub: SubParsers, name: str, help: str, metavar: str = "ACTION", **kwargs: Any) -> SubParsers:
+    """Group ``sofia NAME ACTION``: where its actions are added (the one chosen: ``args.<name>_cmd``)."""
+    parser = sub.add_parser(name, help=help, **kwargs)
+    return parser.add_subparsers(dest=f"{name}_cmd", required=True, metavar=metavar)
+
+
+def add_command(sub: SubParsers, name: str, func: Callable[[argparse.Namespace], int], help: str,
+                json: str | None = None, **kwargs: Any) -> argparse.ArgumentParser:  # fmt: skip
+    """Sub-command ``name`` that runs ``func(args)`` (its exit code); ``json``: the shape its
+    ``--json`` prints (None: no ``--json``); ``kwargs`` go to ``add_parser`` (``description``)."""
+    parser: argparse.ArgumentParser = sub.add_parser(name, help=help, **kwargs)
+    if json is not None:
+        add_json_option(parser, json)
+    parser.set_defaults(func=func)
+    return parser
 
 
 def jsonable(value: Any) -> Any:

@@ -20,7 +20,7 @@ from pathlib import Path
 import zenoh
 from sofia_runtime import zenoh_config
 from sofia_runtime.limits import ClipFilter
-from sofia_runtime.output import add_json_option, emit
+from sofia_runtime.output import add_command, emit
 from sofia_schemas import Keys
 from sofia_schemas.board import BOARD_HELP
 from sofia_schemas.keys import default_robot
@@ -34,8 +34,9 @@ log = logging.getLogger("sofia.demo")
 
 
 def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
-    p = sub.add_parser(
-        "demo", help="the end-to-end demo on synthetic recordings (no hardware)",
+    p = add_command(
+        sub, "demo", _main, "the end-to-end demo on synthetic recordings (no hardware)",
+        "the summary of every step, one object; the running commentary goes to stderr",
         description="Make synthetic recordings if missing, start the services, replay board scenes and a "
         "calibration session, check every result against the recordings' ground truth, drive the "
         "emulated gripper and write plots. Exit 0 only when every step passes, 1 otherwise.",
@@ -54,8 +55,6 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     p.add_argument("--robot", default=None, help="robot id of every key (default $SOFIA_ROBOT or panda)")
     p.add_argument("--no-cell", action="store_true",
                    help="skip the closed loop in the simulated cell (franky-sim: calibrate, detect, pick and place)")  # fmt: skip
-    add_json_option(p, "the summary of every step, one object; the running commentary goes to stderr")
-    p.set_defaults(func=_main)
 
 
 def _main(args: argparse.Namespace) -> int:

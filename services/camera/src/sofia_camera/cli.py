@@ -6,7 +6,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from sofia_runtime.output import add_json_option, emit, fields_text
+from sofia_runtime.output import add_command, add_group, emit, fields_text
 from sofia_runtime.zenoh_config import ZenohOptions, add_zenoh_args
 from sofia_schemas.keys import add_robot_arg, default_robot
 
@@ -78,10 +78,9 @@ def _add_sim_args(p: argparse.ArgumentParser) -> None:
 
 
 def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
-    p = sub.add_parser("camera", help="RealSense D435: service, list, record, simulation")
-    cs = p.add_subparsers(dest="camera_cmd", required=True, metavar="ACTION")
+    cs = add_group(sub, "camera", "RealSense D435: service, list, record, simulation")
 
-    s = cs.add_parser("serve", help="publish the camera's organized clouds and camera info")
+    s = add_command(cs, "serve", _serve, "publish the camera's organized clouds and camera info")
     s.add_argument("--serial", help="camera serial number (default: the first connected)")
     s.add_argument(
         "--width", type=int, default=640, help="frame width, pixels: 640, 848 or 1280 (default 640)"
@@ -124,26 +123,19 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     )
     _add_sim_args(s)
     add_zenoh_args(s)
-    s.set_defaults(func=_serve)
 
-    ls = cs.add_parser("list", help="connected cameras: name, serial, firmware, USB type")
-    add_json_option(ls, "one object per camera and line")
-    ls.set_defaults(func=_list)
-
-    r = cs.add_parser(
-        "record", help="record camera clouds, camera info and flange poses from the bus to MCAP"
-    )
+    add_command(cs, "list", _list, "connected cameras: name, serial, firmware, USB type",
+                "one object per camera and line")  # fmt: skip
+    r = add_command(cs, "record", _record,
+                    "record camera clouds, camera info and flange poses from the bus to MCAP", "the file and the message counts, one object")  # fmt: skip
     r.add_argument("out", type=Path, metavar="OUT.mcap", help="MCAP file to write")
     r.add_argument("--seconds", type=float, required=True, help="how long to record, seconds (required)")
     add_robot_arg(r)
-    add_json_option(r, "the file and the message counts, one object")
     add_zenoh_args(r)
-    r.set_defaults(func=_record)
-
-    t = cs.add_parser("sim-truth", help="print the ground truth of a simulated scene")
+    t = add_command(
+        cs, "sim-truth", _truth, "print the ground truth of a simulated scene", "the truth, one object"
+    )
     _add_sim_args(t)
-    add_json_option(t, "the truth, one object")
-    t.set_defaults(func=_truth)
 
 
 def sim_options(args: argparse.Namespace):  # type: ignore[no-untyped-def]

@@ -1,7 +1,7 @@
 """SofIA gripper: Dynamixel MX-64 driver, emulator and Zenoh service."""
 
+from .commands import Gripper
 from .config import GripperConfig, load_config, save_config
-from .driver import Gripper
 from .emulator import Emulator
 from .errors import CommandError, ConfigError, GripperError, NotReady, OutOfRange
 

@@ -20,14 +20,12 @@ from collections.abc import Callable
 from typing import Any
 
 import serial
-from dynamixel_sdk import COMM_SUCCESS, PacketHandler, PortHandler
+from dynamixel_sdk import COMM_SUCCESS, DXL_MAKEWORD, PacketHandler, PortHandler
+from dynamixel_sdk import protocol1_packet_handler as sdk1
+from dynamixel_sdk import protocol2_packet_handler as sdk2
 
 from .control_table import ALERT_BIT_P2, HW_ERROR_MASK_P1, STATE_BLOCK, Protocol, decode_int, fields
 from .errors import CommFailed, LineLost, ServoRefused
-
-# status packet layout (dynamixel_sdk's PKT_* of each protocol): id, length, error, first data byte
-P2_ID, P2_LEN_L, P2_LEN_H, P2_ERROR, P2_PARAMS = 4, 5, 6, 8, 9
-P1_ID, P1_LEN, P1_ERROR, P1_PARAMS = 2, 3, 4, 5
 
 
 class MarginPort(PortHandler):
@@ -123,22 +121,24 @@ class DxlBus:
         SDK's ``readRx`` but with the packet's parameter count checked (raises :class:`CommFailed`
         naming ``what`` for a reply of another size)."""
         p2 = self.protocol == 2
-        id_at, head = (P2_ID, P2_PARAMS) if p2 else (P1_ID, P1_PARAMS)
+        id_at, error_at = (sdk2.PKT_ID, sdk2.PKT_ERROR) if p2 else (sdk1.PKT_ID, sdk1.PKT_ERROR)
         while True:
             packet, result = self.ph.rxPacket(port, False) if p2 else self.ph.rxPacket(port)
             if result != COMM_SUCCESS or packet[id_at] == self.dxl_id:
                 break
         if result != COMM_SUCCESS:
             return [], result, 0
-        n_data = (packet[P2_LEN_L] | packet[P2_LEN_H] << 8) - 4 if p2 else packet[P1_LEN] - 2
+        if p2:  # LENGTH counts INST, ERROR, the data and the CRC
+            n_data = DXL_MAKEWORD(packet[sdk2.PKT_LENGTH_L], packet[sdk2.PKT_LENGTH_H]) - 4
+        else:  # LENGTH counts ERROR, the data and the checksum
+            n_data = packet[sdk1.PKT_LENGTH] - 2
         if n_data != length:
             self._drop_stale_input()
             raise CommFailed(
                 what,
                 f"status packet with {n_data} data bytes, expected {length}: a stale or cut reply, dropped",
             )
-        error = packet[P2_ERROR if p2 else P1_ERROR]
-        return list(packet[head : head + length]), result, error
+        return list(packet[error_at + 1 : error_at + 1 + length]), result, packet[error_at]
 
     def read(self, name: str) -> int:
         f = self.table[name]

@@ -9,7 +9,7 @@ from pathlib import Path
 from typing import Any
 
 from sofia_runtime.client import query
-from sofia_runtime.output import add_json_option, emit
+from sofia_runtime.output import add_command, add_group, emit
 from sofia_runtime.service import StopFlag
 from sofia_runtime.zenoh_config import ZenohOptions, add_zenoh_args, zenoh_config
 from sofia_schemas.keys import ENCODING_JSON, Keys, add_robot_arg, default_robot
@@ -41,10 +41,9 @@ def gripper_config(args: argparse.Namespace) -> GripperConfig:
 
 
 def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
-    p = sub.add_parser("gripper", help="MX-64 gripper: service, emulator, calibration, commands")
-    gs = p.add_subparsers(dest="gripper_cmd", required=True, metavar="ACTION")
+    gs = add_group(sub, "gripper", "MX-64 gripper: service, emulator, calibration, commands")
 
-    s = gs.add_parser("serve", help="run the gripper service")
+    s = add_command(gs, "serve", _serve, "run the gripper service")
     _add_servo_args(s)
     add_zenoh_args(s)
     add_robot_arg(s)
@@ -52,13 +51,10 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     s.add_argument(
         "--object-width", type=float, metavar="MM", help="width of the emulated object, mm (--emulate)"
     )
-    s.set_defaults(func=_serve)
 
-    e = gs.add_parser(
-        "emulate",
-        help="run an MX-64 emulator on a pseudo-terminal (prints the tty path; faults from stdin: "
-        "object MM|none, overheat, overload, noreply on|off, corrupt on|off, unplug, replug, clear)",
-    )
+    e = add_command(gs, "emulate", _emulate, "run an MX-64 emulator on a pseudo-terminal (prints the tty "
+                    "path; faults from stdin: object MM|none, overheat, overload, noreply on|off, corrupt "
+                    "on|off, unplug, replug, clear)")  # fmt: skip
     e.add_argument("--object-width", type=float, metavar="MM", help="object between the fingers, mm")
     e.add_argument(
         "--protocol",
@@ -72,12 +68,10 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     e.add_argument("--link", type=Path, help="also make this symlink to the tty (stable path)")
     e.add_argument("--config", type=Path, help="gripper YAML config the emulated mechanism follows")
     e.add_argument("--exit-with-stdin", action="store_true", help="stop when stdin closes (the parent died)")
-    e.set_defaults(func=_emulate)
 
-    c = gs.add_parser(
-        "calibrate",
-        help="record the open and closed positions (or, with --force, current against force) into a config",
-    )
+    c = add_command(gs, "calibrate", _calibrate,
+                    "record the open and closed positions (or, with --force, current against force) "
+                    "into a config")  # fmt: skip
     _add_servo_args(c)
     c.add_argument("--out", type=Path, required=True, help="config file to write")
     c.add_argument(
@@ -93,11 +87,11 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
         default=[200.0, 400.0, 600.0, 800.0],
         help="grasp currents for --force, mA (default 200 400 600 800)",
     )
-    c.set_defaults(func=_calibrate)
 
     for action in ACTIONS:
-        a = gs.add_parser(
-            action, help=f"send a {action} command to the gripper service",
+        a = add_command(
+            gs, action, _command, f"send a {action} command to the gripper service",
+            "the GripperResult, one object",
             description=f"Send a {action} command to the gripper service. Exit 0 when it succeeded"
             + (" and an object is held" if action == "grasp" else "")
             + ", 1 when it failed" + (" or nothing was grasped" if action == "grasp" else "")
@@ -106,7 +100,6 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
         add_zenoh_args(a)
         add_robot_arg(a)
         a.add_argument("--timeout", type=float, default=10.0, help="command timeout, s (default 10)")
-        add_json_option(a, "the GripperResult, one object")
         if action == "grasp":
             a.add_argument("--force", type=float, metavar="N", help="grasp force limit, newtons")
             a.add_argument("--current", type=float, metavar="MA", help="grasp current limit, mA")
@@ -119,7 +112,7 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
             )
         if action == "torque":
             a.add_argument("enable", choices=("on", "off"), help="on: torque on; off: the motor turns freely")
-        a.set_defaults(func=_command, action=action)
+        a.set_defaults(action=action)
 
 
 def _serve(args: argparse.Namespace) -> int:

@@ -20,7 +20,7 @@ import zenoh
 from sofia_runtime.service import reply_json
 from sofia_schemas.messages import GripperCommand, GripperResult
 
-from .driver import Gripper
+from .commands import Gripper
 from .errors import QueueFull
 
 log = logging.getLogger(__name__)

@@ -1,4 +1,4 @@
-"""Gripper commands: each returns a :class:`GripperResult` when done, failed or timed out.
+"""The gripper and its commands: each returns a :class:`GripperResult` when done, failed or timed out.
 
 Bad arguments and impossible requests raise :class:`~sofia_gripper.errors.CommandError` (the
 service turns them into error replies); a command that starts and then fails returns
@@ -9,15 +9,11 @@ from __future__ import annotations
 
 import logging
 import time
-from typing import TYPE_CHECKING
 
 from sofia_schemas.messages import GripperCommand, GripperResult, GripperState
 
+from .driver import GripperDriver
 from .errors import CommandError, GripperError, NotReady, OutOfRange
-from .startup import recover_watchdog
-
-if TYPE_CHECKING:
-    from .driver import Gripper
 
 log = logging.getLogger(__name__)
 GRASP_CURRENT_FRACTION = 0.7  # stalled with at least this share of the goal current = object held
@@ -25,9 +21,17 @@ STALL_VELOCITY_RAD_S = 0.05  # about two units of Present Velocity: "not moving"
 MOTION = {"open", "close", "move", "grasp", "release"}
 
 
-def execute(g: Gripper, cmd: GripperCommand, clear_abort: bool = True) -> GripperResult:
-    """Run ``cmd`` on gripper ``g``. ``clear_abort=False``: the caller cleared ``g.abort`` itself
-    (under its own lock, so a stop arriving after that point still ends this command)."""
+class Gripper(GripperDriver):
+    """An MX-64 gripper on a serial line that runs :class:`GripperCommand` s."""
+
+    def execute(self, cmd: GripperCommand, clear_abort: bool = True) -> GripperResult:
+        """Run ``cmd``. ``clear_abort=False``: the caller cleared ``abort`` itself (under its
+        own lock, so a stop arriving after that point still ends this command)."""
+        return _execute(self, cmd, clear_abort)
+
+
+def _execute(g: GripperDriver, cmd: GripperCommand, clear_abort: bool = True) -> GripperResult:
+    """Run ``cmd`` on gripper ``g`` (see :meth:`Gripper.execute`)."""
     t0 = time.monotonic()
     g.counters["commands"] += 1
     if cmd.action == "state":
@@ -49,12 +53,12 @@ def execute(g: Gripper, cmd: GripperCommand, clear_abort: bool = True) -> Grippe
         return _motion(g, cmd, t0)
 
 
-def _require_connected(g: Gripper) -> None:
+def _require_connected(g: GripperDriver) -> None:
     if not g.connected:
         raise NotReady(f"serial line down ({g.error})")
 
 
-def _torque(g: Gripper, cmd: GripperCommand, t0: float) -> GripperResult:
+def _torque(g: GripperDriver, cmd: GripperCommand, t0: float) -> GripperResult:
     if cmd.enable is None:
         raise CommandError("torque needs 'enable': true or false")
     _require_connected(g)
@@ -63,9 +67,9 @@ def _torque(g: Gripper, cmd: GripperCommand, t0: float) -> GripperResult:
             f"reboot needed: the servo shut down on {', '.join(g.hw_error)} and only a reboot re-enables its torque"
         )
     if cmd.enable:
-        g.write_goal("goal_position", g.bus.read("present_position"))
+        g.servo.write_goal("goal_position", g.bus.read("present_position"))
         if g.config.protocol == 1:  # "Alarm Shutdown" set Torque Limit(34) to 0: writing it re-arms
-            g.set_current(g.config.move_current_ma)
+            g.servo.set_current(g.config.move_current_ma)
     g.bus.write("torque_enable", int(cmd.enable))
     # Protocol 2.0 e-Manual, "Shutdown(63)": after a shutdown only REBOOT re-enables the torque; the
     # servo takes the write and switches it off again, so the answer is what the servo reads back
@@ -78,7 +82,7 @@ def _torque(g: Gripper, cmd: GripperCommand, t0: float) -> GripperResult:
     return _result(cmd, True, "done", g.next_state(0.5) or g.state, t0)
 
 
-def _reboot(g: Gripper, cmd: GripperCommand, t0: float) -> GripperResult:
+def _reboot(g: GripperDriver, cmd: GripperCommand, t0: float) -> GripperResult:
     _require_connected(g)
     g.bus.reboot()
     deadline = t0 + cmd.timeout_s
@@ -100,7 +104,7 @@ def _reboot(g: Gripper, cmd: GripperCommand, t0: float) -> GripperResult:
     return _result(cmd, True, "done", state, t0)
 
 
-def _target(g: Gripper, cmd: GripperCommand) -> float:
+def _target(g: GripperDriver, cmd: GripperCommand) -> float:
     """Goal in ticks; out-of-range requests are refused, tiny overshoots clamped."""
     c = g.config
     if cmd.action in ("open", "release"):
@@ -110,7 +114,7 @@ def _target(g: Gripper, cmd: GripperCommand) -> float:
     if cmd.opening_mm is not None and cmd.position_ticks is not None:
         raise CommandError("move takes opening_mm or position_ticks, not both")
     if cmd.position_ticks is not None:
-        low, high = g.limits
+        low, high = g.servo.limits
         if not low <= cmd.position_ticks <= high:
             raise OutOfRange("move position", cmd.position_ticks, low, high, "ticks")
         return cmd.position_ticks
@@ -122,7 +126,7 @@ def _target(g: Gripper, cmd: GripperCommand) -> float:
     raise CommandError("move needs opening_mm or position_ticks")
 
 
-def _current(g: Gripper, cmd: GripperCommand) -> float:
+def _current(g: GripperDriver, cmd: GripperCommand) -> float:
     c = g.config
     if cmd.action != "grasp":
         if cmd.force_n is not None or cmd.current_ma is not None:
@@ -131,19 +135,21 @@ def _current(g: Gripper, cmd: GripperCommand) -> float:
     if cmd.force_n is not None and cmd.current_ma is not None:
         raise CommandError("grasp takes force_n or current_ma, not both")
     current = c.grasp_current_ma
-    max_force = g.current_limit_ma / 1000 * c.force_per_amp_n
+    max_force = g.servo.current_limit_ma / 1000 * c.force_per_amp_n
     if cmd.force_n is not None:
         current = cmd.force_n / c.force_per_amp_n * 1000
-        if current > g.current_limit_ma:
+        if current > g.servo.current_limit_ma:
             raise OutOfRange("grasp force", cmd.force_n, 0, max_force, "N")
     elif cmd.current_ma is not None:
         current = cmd.current_ma
-    if current > g.current_limit_ma:
-        raise OutOfRange("grasp current", current, 0, g.current_limit_ma, f"mA (force limit {max_force:g} N)")
+    if current > g.servo.current_limit_ma:
+        raise OutOfRange(
+            "grasp current", current, 0, g.servo.current_limit_ma, f"mA (force limit {max_force:g} N)"
+        )
     return current
 
 
-def _motion(g: Gripper, cmd: GripperCommand, t0: float) -> GripperResult:
+def _motion(g: GripperDriver, cmd: GripperCommand, t0: float) -> GripperResult:
     target, current = _target(g, cmd), _current(g, cmd)
     _require_connected(g)
     if g.hw_error:
@@ -158,13 +164,15 @@ def _motion(g: Gripper, cmd: GripperCommand, t0: float) -> GripperResult:
     return _wait(g, cmd, goal, current, t0, trips)
 
 
-def _send_goals(g: Gripper, cmd: GripperCommand, target: float, current: float) -> int:
-    g.set_current(current)
-    g.set_speed(cmd.speed or 1.0)
-    return g.set_goal(target)
+def _send_goals(g: GripperDriver, cmd: GripperCommand, target: float, current: float) -> int:
+    g.servo.set_current(current)
+    g.servo.set_speed(cmd.speed or 1.0)
+    return g.servo.set_goal(target)
 
 
-def _wait(g: Gripper, cmd: GripperCommand, goal: int, current: float, t0: float, trips: int) -> GripperResult:
+def _wait(
+    g: GripperDriver, cmd: GripperCommand, goal: int, current: float, t0: float, trips: int
+) -> GripperResult:
     """Wait for the goal or a stall. A stall is detected from the motion itself (speed about 0
     and either the current at the goal current, or the profile over short of the goal) for
     ``stall_time_s``, not from Moving: the servo keeps Moving at 1 until its profile ends, even
@@ -184,10 +192,10 @@ def _wait(g: Gripper, cmd: GripperCommand, goal: int, current: float, t0: float,
         if state.status == "error":
             return _result(cmd, False, state.error or "error", state, t0)
         if g.abort.is_set():  # hold where we are, even if our goal was written after the stop's
-            g.write_goal("goal_position", state.position_ticks or goal)
+            g.servo.write_goal("goal_position", state.position_ticks or goal)
             return _result(cmd, False, "stopped by a stop command", state, t0)
         if now > deadline:
-            g.write_goal("goal_position", state.position_ticks or goal)
+            g.servo.write_goal("goal_position", state.position_ticks or goal)
             return _result(cmd, False, f"timeout after {cmd.timeout_s:g} s", state, t0)
         if g.counters["watchdog_trips"] != trips:  # the servo stopped on a trip: send the goals again
             trips = g.counters["watchdog_trips"]
@@ -209,7 +217,7 @@ def _wait(g: Gripper, cmd: GripperCommand, goal: int, current: float, t0: float,
         still_since = still_since or now
         if now - still_since < c.stall_time_s:
             continue
-        if not squeezing and (recover_watchdog(g) or g.bus.read("goal_position") != goal):
+        if not squeezing and (g.servo.recover_watchdog() or g.bus.read("goal_position") != goal):
             log.warning(
                 "gripper %s: the servo dropped its goal (a watchdog trip); sending it again", cmd.action
             )

@@ -11,6 +11,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Literal
 
+from dynamixel_sdk.protocol1_packet_handler import ERRBIT_OVERHEAT, ERRBIT_OVERLOAD, ERRBIT_VOLTAGE
+from dynamixel_sdk.protocol2_packet_handler import ERRBIT_ALERT
+
 Protocol = Literal[1, 2]
 
 MODEL_MX64_P2 = 311  # MX-64(2.0)
@@ -119,8 +122,8 @@ STATUS_ERROR_BITS_P1 = {
     5: "overload",
     6: "instruction",
 }
-HW_ERROR_MASK_P1 = 0b0010_0101  # the P1 bits that are hardware errors (voltage, overheat, overload)
-ALERT_BIT_P2 = 0x80
+HW_ERROR_MASK_P1 = ERRBIT_VOLTAGE | ERRBIT_OVERHEAT | ERRBIT_OVERLOAD  # the P1 bits that are hardware errors
+ALERT_BIT_P2 = ERRBIT_ALERT
 
 
 @dataclass(frozen=True)

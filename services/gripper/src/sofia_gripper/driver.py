@@ -1,9 +1,10 @@
-"""The gripper driver: start-up sequence, state loop, safety, reconnect.
+"""The gripper driver: connection, state loop, safety, reconnect.
 
 One thread owns the state loop: one Sync/Bulk Read per cycle, decoded into a
-:class:`GripperState` and handed to ``on_state``. Commands (:mod:`.commands`) write goals and
-wait for the loop's states. When the serial line fails the state says ``disconnected`` with no
-stale values, and the loop reconnects every ``reconnect_period_s``.
+:class:`GripperState` and handed to ``on_state``. Commands (:mod:`.commands`, on top of this
+module) write goals through :attr:`GripperDriver.servo` (:mod:`.servo`) and wait for the loop's
+states. When the serial line fails the state says ``disconnected`` with no stale values, and the
+loop reconnects every ``reconnect_period_s``.
 """
 
 from __future__ import annotations
@@ -15,27 +16,28 @@ import time
 from collections.abc import Callable
 from typing import Literal
 
-from sofia_schemas.messages import GripperCommand, GripperResult, GripperState, now_ns
+from sofia_schemas.messages import GripperState, now_ns
 
 from .bus import DxlBus
 from .config import GripperConfig
-from .control_table import MODEL, STALL_CURRENT_MA, STATE_BLOCK, UNITS, decode_int, hardware_error_words
-from .errors import BusError, GripperError, ServoRefused, WrongModel
-from .startup import configure, is_data_range, recover_watchdog
+from .control_table import MODEL, STATE_BLOCK, decode_int, hardware_error_words
+from .errors import BusError, GripperError, WrongModel
+from .servo import Servo
 
 log = logging.getLogger(__name__)
 FAILS_BEFORE_LOST = 3
 LOST_AFTER_S = 0.3  # ... and failing for at least this long
 
 
-class Gripper:
+class GripperDriver:
     """An MX-64 gripper on a serial line. ``start()`` connects and runs the state loop."""
 
     def __init__(self, config: GripperConfig, on_state: Callable[[GripperState], None] | None = None) -> None:
         self.config, self.on_state = config, on_state
         self.kin = config.kinematics()
-        self.units = UNITS[config.protocol]
         self.bus = DxlBus(config.port, config.baud, config.protocol, config.dxl_id, config.reply_margin_ms)
+        self.counters = {"cycles": 0, "read_errors": 0, "reconnects": 0, "commands": 0, "watchdog_trips": 0}
+        self.servo = Servo(self.bus, config, self.counters)
         self.cond = threading.Condition()
         self.state = GripperState(stamp_ns=now_ns(), connected=False, status="disconnected")
         self.seq = 0
@@ -45,11 +47,8 @@ class Gripper:
         self.torque = False
         self.grasped = False
         self.error: str | None = "not connected yet"
-        self.limits = (config.open_ticks, config.closed_ticks)
-        self.current_limit_ma = config.max_current_ma
         self.abort = threading.Event()
         self.command_lock = threading.Lock()
-        self.counters = {"cycles": 0, "read_errors": 0, "reconnects": 0, "commands": 0, "watchdog_trips": 0}
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
         self._fails = 0
@@ -99,7 +98,8 @@ class Gripper:
 
     def configure(self) -> None:
         """Read limits, set the operating mode and currents, arm the watchdog, torque on."""
-        configure(self)
+        self.servo.configure()
+        self.torque, self.hw_error, self.overheated = True, [], False
 
     @property
     def recover_hint(self) -> str:
@@ -110,39 +110,6 @@ class Gripper:
         if p2:
             return "send reboot"
         return "send torque on (rewrites Torque Limit, which the servo's shutdown set to 0)"
-
-    # --- writes used by commands -----------------------------------------
-    def write_goal(self, name: str, value: int) -> None:
-        """Write a goal value; a refusal from a tripped Bus Watchdog is cleared and retried once."""
-        try:
-            self.bus.write(name, value)
-        except ServoRefused as e:
-            if not (is_data_range(e) and recover_watchdog(self)):
-                raise
-            self.bus.write(name, value)
-
-    def set_current(self, current_ma: float) -> None:
-        current_ma = min(current_ma, self.current_limit_ma)
-        if self.config.protocol == 2:
-            self.write_goal("goal_current", round(current_ma / self.units.current_ma))
-        else:
-            self.bus.write("torque_limit", round(current_ma / STALL_CURRENT_MA * 1023))
-
-    def set_speed(self, fraction: float) -> None:
-        units = round(self.config.max_velocity_rpm * fraction / self.units.velocity_rpm)
-        self.bus.write("profile_velocity", max(1, units))
-
-    def set_goal(self, ticks: float) -> int:
-        """Goal Position clamped to the calibrated open..closed range (the servo applies no
-        position limit in current-based position mode)."""
-        goal = round(min(max(ticks, self.limits[0]), self.limits[1]))
-        self.write_goal("goal_position", goal)
-        return goal
-
-    def execute(self, command: GripperCommand, clear_abort: bool = True) -> GripperResult:
-        from .commands import execute
-
-        return execute(self, command, clear_abort)
 
     # --- state loop -------------------------------------------------------
     def _loop(self) -> None:
@@ -187,7 +154,7 @@ class Gripper:
                     self.config.protocol == 2 or self.bus.read("torque_limit") > 0
                 )  # Protocol 1.0 shutdown sets Torque Limit to 0 and leaves Torque Enable on
                 if self.torque:
-                    recover_watchdog(self)
+                    self.servo.recover_watchdog()
                 else:  # a shutdown (or torque off) lets go of whatever was held
                     self.grasped = False
         except BusError as e:
@@ -212,7 +179,7 @@ class Gripper:
         self._publish(state)
 
     def _decode(self, block: bytes) -> GripperState:
-        u, t = self.units, self.bus.table
+        u, t = self.servo.units, self.bus.table
         start = STATE_BLOCK[self.config.protocol][0]
 
         def get(name: str) -> int:

@@ -20,13 +20,14 @@ import time
 import tty
 from pathlib import Path
 
+from dynamixel_sdk.protocol1_packet_handler import ERRBIT_OVERLOAD
 from sofia_schemas.sim_world import WorldFile, world_path
 
 from . import packets as pk
 from .config import GripperConfig
 from .control_table import Protocol
 from .emulator_instructions import execute
-from .emulator_servo import HW_OVERLOAD, P1_OVERLOAD, Mx64Servo
+from .emulator_servo import HW_OVERLOAD, Mx64Servo
 
 log = logging.getLogger(__name__)
 
@@ -130,7 +131,7 @@ class Emulator:
 
     def inject_overload(self) -> None:
         with self.lock:
-            self.servo.hw_error |= HW_OVERLOAD if self.protocol == 2 else P1_OVERLOAD
+            self.servo.hw_error |= HW_OVERLOAD if self.protocol == 2 else ERRBIT_OVERLOAD
 
     def clear_faults(self) -> None:
         """Cool down and drop the overload cause (the servo still needs a reboot to clear its error)."""
@@ -233,7 +234,7 @@ class Emulator:
         self.packets += 1
         if not ins.valid:
             return self._status(pk.ERR_CRC if self.protocol == 2 else pk.ERRBIT1_CHECKSUM) if mine else None
-        params, error, kind = execute(self, ins)
+        params, error, kind = execute(s, self.dxl_id, ins)
         if params is None:
             return None
         # "Status Return Level(68)": 0 answers PING only, 1 PING and READ (Sync/Bulk Read are

@@ -7,24 +7,20 @@ whether a status packet is sent).
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
 from . import packets as pk
-
-if TYPE_CHECKING:
-    from .emulator import Emulator
+from .emulator_servo import Mx64Servo
 
 Result = tuple[bytes | None, int, str]
 
 
 def _u16(b: bytes, i: int) -> int:
-    return b[i] | (b[i + 1] << 8)
+    return int.from_bytes(b[i : i + 2], "little")
 
 
-def execute(emu: Emulator, ins: pk.Instruction) -> Result:
-    """Run ``ins`` on the emulator's servo (the caller holds ``emu.lock``)."""
-    p2 = emu.protocol == 2
-    s, p = emu.servo, ins.params
+def execute(s: Mx64Servo, dxl_id: int, ins: pk.Instruction) -> Result:
+    """Run ``ins`` on servo ``s``, which answers to ``dxl_id`` (the caller holds its lock)."""
+    p2 = s.protocol == 2
+    p = ins.params
     bad_len = pk.ERR_DATA_LENGTH if p2 else pk.ERRBIT1_RANGE
     if ins.inst == pk.INST_PING:
         if ins.dxl_id == pk.BROADCAST_ID and not p2:
@@ -65,39 +61,39 @@ def execute(emu: Emulator, ins: pk.Instruction) -> Result:
         if s.get("torque_enable") and p2:
             return b"", pk.ERR_ACCESS, "write"
         option = p[0] if (p2 and p) else 0xFF
-        s.factory_reset(1 if option == 0xFF else emu.dxl_id)
+        s.factory_reset(1 if option == 0xFF else dxl_id)
         return b"", 0, "write"
     if ins.inst == pk.INST_SYNC_WRITE:
-        return _sync_write(emu, p)
+        return _sync_write(s, dxl_id, p)
     if ins.inst == pk.INST_SYNC_READ and p2:
-        if len(p) < 5 or emu.dxl_id not in p[4:]:
+        if len(p) < 5 or dxl_id not in p[4:]:
             return None, 0, "sync_read"
         addr, length = _u16(p, 0), _u16(p, 2)
         return s.read(addr, length), 0, "sync_read"
     if ins.inst == pk.INST_BULK_READ:
-        return _bulk_read(emu, p)
+        return _bulk_read(s, dxl_id, p)
     return b"", pk.ERR_INSTRUCTION if p2 else pk.ERRBIT1_INSTRUCTION, "write"
 
 
-def _sync_write(emu: Emulator, p: bytes) -> Result:
-    p2 = emu.protocol == 2
+def _sync_write(s: Mx64Servo, dxl_id: int, p: bytes) -> Result:
+    p2 = s.protocol == 2
     hdr = 4 if p2 else 2
     if len(p) < hdr:
         return None, 0, "sync_write"
     addr, length = (_u16(p, 0), _u16(p, 2)) if p2 else (p[0], p[1])
     for i in range(hdr, len(p) - length, length + 1):
-        if p[i] == emu.dxl_id:
-            emu.servo.write(addr, bytes(p[i + 1 : i + 1 + length]))
+        if p[i] == dxl_id:
+            s.write(addr, bytes(p[i + 1 : i + 1 + length]))
     return None, 0, "sync_write"
 
 
-def _bulk_read(emu: Emulator, p: bytes) -> Result:
-    if emu.protocol == 2:  # [id, addr_l, addr_h, len_l, len_h] * n
+def _bulk_read(s: Mx64Servo, dxl_id: int, p: bytes) -> Result:
+    if s.protocol == 2:  # [id, addr_l, addr_h, len_l, len_h] * n
         for i in range(0, len(p) - 4, 5):
-            if p[i] == emu.dxl_id:
-                return emu.servo.read(_u16(p, i + 1), _u16(p, i + 3)), 0, "bulk_read"
+            if p[i] == dxl_id:
+                return s.read(_u16(p, i + 1), _u16(p, i + 3)), 0, "bulk_read"
         return None, 0, "bulk_read"
     for i in range(1, len(p) - 2, 3):  # 0x00, then [len, id, addr] * n
-        if p[i + 1] == emu.dxl_id:
-            return emu.servo.read(p[i + 2], p[i]), 0, "bulk_read"
+        if p[i + 1] == dxl_id:
+            return s.read(p[i + 2], p[i]), 0, "bulk_read"
     return None, 0, "bulk_read"

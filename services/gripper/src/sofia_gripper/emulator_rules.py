@@ -19,6 +19,8 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
+from dynamixel_sdk.protocol1_packet_handler import ERRBIT_ANGLE
+
 from . import packets as pk
 from .control_table import (
     OPERATING_MODE_CURRENT_BASED_POSITION,
@@ -32,7 +34,6 @@ OPERATING_MODE_POSITION = 3
 OPERATING_MODE_EXTENDED_POSITION = 4
 MULTI_TURN_GOAL_LIMIT = 1_048_575  # Goal Position range in operating modes 4 and 5
 GOAL_ITEMS = {"goal_pwm", "goal_current", "goal_velocity", "goal_position"}
-P1_ANGLE = 1 << 1
 
 
 def position_limited(protocol: Protocol, get: Callable[[str], int]) -> bool:
@@ -69,7 +70,7 @@ def check_write(
         goal = decode_int(new, f.address, f)
         if position_limited(protocol, get):
             if not get("min_position_limit") <= goal <= get("max_position_limit"):
-                return pk.ERR_DATA_LIMIT if p2 else P1_ANGLE
+                return pk.ERR_DATA_LIMIT if p2 else ERRBIT_ANGLE
         elif p2 and get("operating_mode") in (
             OPERATING_MODE_EXTENDED_POSITION,
             OPERATING_MODE_CURRENT_BASED_POSITION,

@@ -20,7 +20,10 @@ from __future__ import annotations
 import math
 import time
 
+from dynamixel_sdk.protocol1_packet_handler import ERRBIT_OVERHEAT as P1_OVERHEAT
+
 from .control_table import (
+    ALERT_BIT_P2,
     MODEL,
     OPERATING_MODE_CURRENT_BASED_POSITION,
     STALL_CURRENT_MA,
@@ -43,7 +46,6 @@ COMPLIANCE_TICKS_PER_MA = 0.02  # how far the soft fingers give per mA of squeez
 MAX_STEP_S = 0.002
 LAG_CURRENT_MA_PER_TICK = 10.0  # position-loop current per tick of lag behind the trajectory
 HW_OVERHEAT, HW_OVERLOAD = 1 << 2, 1 << 5  # Protocol 2.0 Hardware Error Status bits
-P1_OVERHEAT, P1_OVERLOAD, P1_ANGLE = 1 << 2, 1 << 5, 1 << 1
 
 DEFAULTS: dict[Protocol, dict[str, int]] = {
     2: {
@@ -251,5 +253,5 @@ class Mx64Servo:
     def status_error(self) -> int:
         """Error byte carried by every status packet: P2 alert bit, P1 hardware bits."""
         if self.protocol == 2:
-            return 0x80 if self.hw_error else 0
+            return ALERT_BIT_P2 if self.hw_error else 0
         return self.hw_error

@@ -70,7 +70,7 @@ def calibrate_force(
     """Grasp a scale at each of ``currents_ma``, read it, fit and save ``force_per_amp_n``."""
     from sofia_schemas.messages import GripperCommand
 
-    from .driver import Gripper
+    from .commands import Gripper
 
     g = Gripper(config)
     g.start()

@@ -1,5 +1,8 @@
 """Dynamixel packet framing, byte for byte, as the servo sees it (used by the emulator).
 
+The instruction and error numbers, the Protocol 2.0 CRC and byte stuffing are the vendor SDK's
+(``dynamixel_sdk``); this module frames whole packets and parses a byte stream into them.
+
 Protocol 2.0: ``FF FF FD 00 ID LEN_L LEN_H INST PARAMS... CRC_L CRC_H``, LEN counts INST, PARAMS
 and the CRC; CRC-16 (polynomial 0x8005, no reflection, init 0) over everything before the CRC;
 ``FF FF FD`` inside INST..PARAMS is stuffed as ``FF FF FD FD``. A status packet has INST 0x55
@@ -13,103 +16,68 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-INST_PING = 0x01
-INST_READ = 0x02
-INST_WRITE = 0x03
-INST_REG_WRITE = 0x04
-INST_ACTION = 0x05
-INST_FACTORY_RESET = 0x06
-INST_REBOOT = 0x08
-INST_STATUS = 0x55
-INST_SYNC_READ = 0x82
-INST_SYNC_WRITE = 0x83
-INST_BULK_READ = 0x92
-BROADCAST_ID = 0xFE
+from dynamixel_sdk.protocol1_packet_handler import ERRBIT_CHECKSUM as ERRBIT1_CHECKSUM
+from dynamixel_sdk.protocol1_packet_handler import ERRBIT_INSTRUCTION as ERRBIT1_INSTRUCTION
+from dynamixel_sdk.protocol1_packet_handler import ERRBIT_RANGE as ERRBIT1_RANGE
+from dynamixel_sdk.protocol2_packet_handler import ERRNUM_ACCESS as ERR_ACCESS
+from dynamixel_sdk.protocol2_packet_handler import ERRNUM_CRC as ERR_CRC
+from dynamixel_sdk.protocol2_packet_handler import ERRNUM_DATA_LENGTH as ERR_DATA_LENGTH
+from dynamixel_sdk.protocol2_packet_handler import ERRNUM_DATA_LIMIT as ERR_DATA_LIMIT
+from dynamixel_sdk.protocol2_packet_handler import ERRNUM_DATA_RANGE as ERR_DATA_RANGE
+from dynamixel_sdk.protocol2_packet_handler import ERRNUM_INSTRUCTION as ERR_INSTRUCTION
+from dynamixel_sdk.protocol2_packet_handler import Protocol2PacketHandler
+from dynamixel_sdk.robotis_def import (
+    BROADCAST_ID,
+    INST_ACTION,
+    INST_BULK_READ,
+    INST_FACTORY_RESET,
+    INST_PING,
+    INST_READ,
+    INST_REBOOT,
+    INST_REG_WRITE,
+    INST_STATUS,
+    INST_SYNC_READ,
+    INST_SYNC_WRITE,
+    INST_WRITE,
+)
 
-# Protocol 2.0 status error numbers.
-ERR_RESULT_FAIL = 1
-ERR_INSTRUCTION = 2
-ERR_CRC = 3
-ERR_DATA_RANGE = 4
-ERR_DATA_LENGTH = 5
-ERR_DATA_LIMIT = 6
-ERR_ACCESS = 7
-# Protocol 1.0 status error bits.
-ERRBIT1_RANGE = 1 << 3
-ERRBIT1_CHECKSUM = 1 << 4
-ERRBIT1_INSTRUCTION = 1 << 6
-
-
-def _crc_table() -> list[int]:
-    table = []
-    for i in range(256):
-        crc = i << 8
-        for _ in range(8):
-            crc = ((crc << 1) ^ 0x8005) if crc & 0x8000 else (crc << 1)
-        table.append(crc & 0xFFFF)
-    return table
+__all__ = [
+    "BROADCAST_ID", "ERRBIT1_CHECKSUM", "ERRBIT1_INSTRUCTION", "ERRBIT1_RANGE", "ERR_ACCESS", "ERR_CRC",
+    "ERR_DATA_LENGTH", "ERR_DATA_LIMIT", "ERR_DATA_RANGE", "ERR_INSTRUCTION", "INST_ACTION", "INST_BULK_READ",
+    "INST_FACTORY_RESET", "INST_PING", "INST_READ", "INST_REBOOT", "INST_REG_WRITE", "INST_STATUS",
+    "INST_SYNC_READ", "INST_SYNC_WRITE", "INST_WRITE", "Instruction", "PacketParser", "instruction_packet",
+    "status_packet",
+]  # fmt: skip
+_SDK2 = Protocol2PacketHandler()  # its CRC-16 and byte stuffing are those of the servo's firmware
 
 
-_CRC_TABLE = _crc_table()
+def _crc16(data: bytes | list[int]) -> int:
+    return int(_SDK2.updateCRC(0, data, len(data)))
 
 
-def crc16(data: bytes | bytearray) -> int:
-    """Dynamixel Protocol 2.0 CRC-16 of ``data``."""
-    crc = 0
-    for b in data:
-        crc = ((crc << 8) ^ _CRC_TABLE[((crc >> 8) ^ b) & 0xFF]) & 0xFFFF
-    return crc
-
-
-def stuff(body: bytes) -> bytes:
-    """Insert 0xFD after every ``FF FF FD`` in ``body`` (INST..PARAMS, preceded by the header)."""
-    out = bytearray(b"\xff\xff\xfd\x00")  # the header primes the FF FF detection
-    for b in body:
-        out.append(b)
-        if b == 0xFD and out[-2] == 0xFF and out[-3] == 0xFF:
-            out.append(0xFD)
-    return bytes(out[4:])
-
-
-def unstuff(body: bytes) -> bytes:
-    """Remove the stuffing byte of every ``FF FF FD FD`` in ``body``."""
-    out = bytearray()
-    i = 0
-    while i < len(body):
-        out.append(body[i])
-        if body[i] == 0xFD and i + 1 < len(body) and body[i + 1] == 0xFD and out[-3:-1] == b"\xff\xff":
-            i += 1
-        i += 1
-    return bytes(out)
-
-
-def checksum1(data: bytes | bytearray) -> int:
+def _checksum1(data: bytes) -> int:
     """Protocol 1.0 checksum of ID..PARAMS."""
     return (~sum(data)) & 0xFF
+
+
+def instruction_packet(protocol: int, dxl_id: int, inst: int, params: bytes = b"") -> bytes:
+    """A complete packet with ``inst`` (or, for a Protocol 1.0 status packet, the error byte)."""
+    if protocol == 1:
+        body = bytes([dxl_id, len(params) + 2, inst]) + params
+        return b"\xff\xff" + body + bytes([_checksum1(body)])
+    length = len(params) + 3
+    packet = _SDK2.addStuffing(
+        [0xFF, 0xFF, 0xFD, 0x00, dxl_id, length & 0xFF, length >> 8, inst, *params, 0, 0]
+    )
+    crc = _crc16(packet[:-2])
+    return bytes(packet[:-2]) + bytes([crc & 0xFF, crc >> 8])
 
 
 def status_packet(protocol: int, dxl_id: int, error: int, params: bytes = b"") -> bytes:
     """A complete status packet of ``protocol`` with ``error`` and ``params``."""
     if protocol == 1:
-        body = bytes([dxl_id, len(params) + 2, error]) + params
-        return b"\xff\xff" + body + bytes([checksum1(body)])
-    payload = stuff(bytes([INST_STATUS, error]) + params)
-    length = len(payload) + 2
-    head = bytes([0xFF, 0xFF, 0xFD, 0x00, dxl_id, length & 0xFF, length >> 8])
-    crc = crc16(head + payload)
-    return head + payload + bytes([crc & 0xFF, crc >> 8])
-
-
-def instruction_packet(protocol: int, dxl_id: int, inst: int, params: bytes = b"") -> bytes:
-    """A complete instruction packet (the host side; for sizes and tests)."""
-    if protocol == 1:
-        body = bytes([dxl_id, len(params) + 2, inst]) + params
-        return b"\xff\xff" + body + bytes([checksum1(body)])
-    payload = stuff(bytes([inst]) + params)
-    length = len(payload) + 2
-    head = bytes([0xFF, 0xFF, 0xFD, 0x00, dxl_id, length & 0xFF, length >> 8])
-    crc = crc16(head + payload)
-    return head + payload + bytes([crc & 0xFF, crc >> 8])
+        return instruction_packet(1, dxl_id, error, params)
+    return instruction_packet(2, dxl_id, INST_STATUS, bytes([error]) + params)
 
 
 @dataclass(frozen=True)
@@ -160,8 +128,9 @@ class PacketParser:
             return None
         raw = bytes(self.buf[:total])
         del self.buf[:total]
-        valid = crc16(raw[:-2]) == (raw[-2] | (raw[-1] << 8))
-        body = unstuff(raw[7:-2])
+        valid = _crc16(raw[:-2]) == (raw[-2] | (raw[-1] << 8))
+        packet = _SDK2.removeStuffing(list(raw))
+        body = bytes(packet[7 : 5 + (packet[5] | (packet[6] << 8))])  # INST..PARAMS
         return Instruction(raw[4], body[0], body[1:], valid, total)
 
     def _next1(self) -> Instruction | None:
@@ -175,5 +144,5 @@ class PacketParser:
             return None
         raw = bytes(self.buf[:total])
         del self.buf[:total]
-        valid = checksum1(raw[2:-1]) == raw[-1]
+        valid = _checksum1(raw[2:-1]) == raw[-1]
         return Instruction(raw[2], raw[4], raw[5:-1], valid, total)

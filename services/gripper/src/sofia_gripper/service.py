@@ -39,8 +39,8 @@ from sofia_schemas.keys import ENCODING_JSON, Keys
 from sofia_schemas.messages import GripperCommand, GripperState, ServiceStatus, now_ns
 
 from .command_queue import CommandQueue
+from .commands import Gripper
 from .config import GripperConfig, save_config
-from .driver import Gripper
 from .errors import GripperError
 
 log = logging.getLogger(__name__)

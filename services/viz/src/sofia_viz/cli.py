@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from sofia_runtime.output import add_json_option, emit
+from sofia_runtime.output import add_command, add_group, emit
 from sofia_runtime.zenoh_config import ZenohOptions, add_zenoh_args
 from sofia_schemas import Board
 from sofia_schemas.board import BOARD_HELP
@@ -16,9 +16,8 @@ LAYOUT = Path(__file__).with_name("data") / "layout.json"
 
 
 def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
-    p = sub.add_parser("viz", help="live view in Foxglove (WebSocket server)")
-    s = p.add_subparsers(dest="viz_cmd", required=True)
-    serve = s.add_parser("serve", help="serve SofIA's bus to Foxglove over WebSocket")
+    s = add_group(sub, "viz", "live view in Foxglove (WebSocket server)")
+    serve = add_command(s, "serve", _serve, "serve SofIA's bus to Foxglove over WebSocket")
     serve.add_argument(
         "--host", default="127.0.0.1", help="address to listen on (0.0.0.0 for other machines)"
     )
@@ -30,10 +29,7 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
                        help="frame_id of the camera clouds (default %(default)s)")  # fmt: skip
     add_robot_arg(serve)
     add_zenoh_args(serve)
-    serve.set_defaults(func=_serve)
-    layout = s.add_parser("layout", help="print the path of the saved Foxglove layout")
-    add_json_option(layout, "the path, one object")
-    layout.set_defaults(func=_layout)
+    add_command(s, "layout", _layout, "print the path of the saved Foxglove layout", "the path, one object")
 
 
 def _layout(args: argparse.Namespace) -> int:

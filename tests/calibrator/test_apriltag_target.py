@@ -11,8 +11,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 from sofia_calibrator.any_target import calibrate_target
-from sofia_calibrator.fitting.diagnostics import error6
 from sofia_calibrator.errors import InputMismatch
+from sofia_calibrator.fitting.diagnostics import error6
 from sofia_calibrator.fitting.simulate import random_T_flange_cam, views_of
 from sofia_calibrator.targets.apriltag import TagNotFound, TagSpec, render_tag_view, tag_poses
 from sofia_calibrator.targets.poses import hand_eye_from_poses

@@ -17,8 +17,8 @@ from sofia_schemas.messages.calibration import (
 from sofia_schemas.transforms import make_transform, matrix_to_quat_xyzw
 
 from .errors import CalibrationError
-from .fitting.calibrate import CHILD_FRAME, PARENT_FRAME, calibrate
 from .eye_to_hand import BASE_FRAME, flange_base_poses
+from .fitting.calibrate import CHILD_FRAME, PARENT_FRAME, calibrate
 from .formats import to_message
 from .pairing import NotPaired, PairingOptions, PoseBuffer
 from .samples.store import SampleStore

@@ -5,7 +5,6 @@ from __future__ import annotations
 import argparse
 import json
 import logging
-import sys
 from importlib.metadata import entry_points
 from typing import Any
 
@@ -15,7 +14,7 @@ from sofia_runtime.zenoh_config import add_zenoh_args
 from sofia_schemas.keys import add_robot_arg
 from sofia_schemas.transforms import make_transform
 
-from .errors import InputMismatch
+from .cli_inputs import add_target_args, load_samples, run_target
 from .fitting.calibrate import CHILD_FRAME, PARENT_FRAME
 from .inbox import QUERY_DEADLINE_S
 from .samples.store import MAX_SAMPLES
@@ -105,168 +104,10 @@ def _seconds(text: str) -> float:
     return value
 
 
-def add_target_args(p: argparse.ArgumentParser) -> None:
-    """--target / --setup and the inputs of the sphere and pose targets."""
-    g = p.add_argument_group("target and set-up")
-    g.add_argument("--target", default="blob", choices=("blob", "sphere", "poses", "charuco", "apriltag"),
-                   help="what the camera sees: blob (default), sphere (--clouds), poses (--pose-pairs), "
-                   "charuco (--images, --camera-matrix, --board), apriltag (--images, --camera-matrix, --tag-size)")  # fmt: skip
-    g.add_argument("--setup", default="eye-in-hand", choices=("eye-in-hand", "eye-to-hand"),
-                   help="eye-in-hand: camera on the flange (T_flange_cam, default); eye-to-hand: camera "
-                   "fixed, target on the flange (T_base_cam)")  # fmt: skip
-    g.add_argument("--clouds", nargs="+", metavar="CLOUD", help="sphere: one PCD/PLY cloud per flange pose")
-    g.add_argument("--cloud-unit", type=float, default=1.0, help="metres per cloud unit (default 1)")
-    g.add_argument("--radius", type=float, help="sphere radius, metres (default: fitted)")
-    g.add_argument("--euler-poses", metavar="FILE",
-                   help="flange poses as 'a, b, c, x, y, z' lines (radians; see --euler-convention)")  # fmt: skip
-    g.add_argument("--euler-convention", default="xyz", help="SciPy Euler sequence (default xyz)")
-    g.add_argument(
-        "--length-unit", type=float, default=1e-3, help="metres per --euler-poses unit (default mm)"
-    )
-    g.add_argument("--pose-pairs", metavar="FILE",
-                   help="poses: OpenCV YAML of T1_i (flange) / T2_i (target in camera) pairs")  # fmt: skip
-    g.add_argument(
-        "--images", nargs="+", metavar="IMAGE", help="charuco: one rectified image per flange pose"
-    )
-    g.add_argument("--camera-matrix", metavar="'fx fy cx cy'|FILE",
-                   help="charuco: the images' intrinsics (pixels), or a YAML/JSON file with K or fx fy cx cy")  # fmt: skip
-    g.add_argument("--board", nargs=4, type=float, metavar=("COLS", "ROWS", "SQUARE", "MARKER"),
-                   help="charuco: squares across and down, square and marker sides in metres (default 7 5 0.04 0.03)")  # fmt: skip
-    g.add_argument(
-        "--board-dict", default="DICT_5X5_100", help="charuco: the ArUco dictionary (default DICT_5X5_100)"
-    )
-    g.add_argument(
-        "--tag-size",
-        type=float,
-        default=0.08,
-        help="apriltag: the black square's side, metres (default 0.08)",
-    )
-    g.add_argument(
-        "--tag-family",
-        default="DICT_APRILTAG_36h11",
-        help="apriltag: OpenCV's dictionary (default DICT_APRILTAG_36h11)",
-    )
-    g.add_argument("--tag-id", type=int, default=0, help="apriltag: the tag's id (default 0)")
-
-
-def run_target(args: argparse.Namespace) -> object:
-    """The calibration of ``--target`` / ``--setup`` (any target but the plain eye-in-hand blob)."""
-    from .any_target import PLANNED, calibrate_target, frames
-
-    parent, child = frames(args.setup)
-    parent = parent if args.parent_frame == PARENT_FRAME else args.parent_frame
-    child = child if args.child_frame == CHILD_FRAME else args.child_frame
-    common: dict[str, Any] = {"parent_frame": parent, "child_frame": child}
-    if args.target in PLANNED:
-        raise InputMismatch(
-            f"--target {args.target} is not available yet: give its poses with --target poses"
-        )
-    if args.target == "poses":
-        from .targets.files import read_opencv_pose_pairs
-
-        if not args.pose_pairs:
-            raise InputMismatch("--target poses needs --pose-pairs FILE")
-        T, T_cam_target = read_opencv_pose_pairs(args.pose_pairs)
-        return calibrate_target("poses", args.setup, T_base_flange=T, T_cam_target=T_cam_target, **common)
-    if args.target in ("charuco", "apriltag"):
-        return calibrate_target(args.target, args.setup, **image_inputs(args), **common)
-    if args.euler_poses:
-        from .targets.files import read_euler_poses
-
-        T = read_euler_poses(args.euler_poses, args.euler_convention, args.length_unit)
-    elif args.target == "sphere" and args.tfs:
-        from .inputs.lab import read_tfs
-
-        T = read_tfs(args.tfs)
-    else:
-        p_cam, T = load_samples(args)
-    options: dict[str, Any] = {"sigma": args.noise, "loss": args.loss, "exclude_outliers": not args.keep_outliers,
-               "correction": args.correction, **common}  # fmt: skip
-    if args.target == "sphere":
-        from .targets.files import read_cloud
-
-        if not args.clouds:
-            raise InputMismatch("--target sphere needs --clouds, one cloud file per flange pose")
-        if len(args.clouds) != len(T):
-            raise InputMismatch(f"{len(args.clouds)} clouds but {len(T)} flange poses")
-        clouds = [read_cloud(c) * args.cloud_unit for c in args.clouds]
-        return calibrate_target("sphere", args.setup, T_base_flange=T, clouds_cam=clouds, radius_m=args.radius,
-                                **options)  # fmt: skip
-    return calibrate_target(args.target, args.setup, T_base_flange=T, p_cam=p_cam, **options)
-
-
-def image_inputs(args: argparse.Namespace) -> dict[str, Any]:
-    """T_base_flange (--tfs or --euler-poses), the grey images, K and the board or the tag of
-    --target charuco or apriltag."""
-    from .targets.apriltag import TagSpec
-    from .targets.charuco import BoardSpec
-    from .targets.files import read_camera_matrix, read_euler_poses, read_grey_images
-
-    if not args.images or not args.camera_matrix:
-        raise InputMismatch(
-            f"--target {args.target} needs --images (one per flange pose) and --camera-matrix"
-        )
-    if args.euler_poses:
-        T = read_euler_poses(args.euler_poses, args.euler_convention, args.length_unit)
-    elif args.tfs:
-        from .inputs.lab import read_tfs
-
-        T = read_tfs(args.tfs)
-    else:
-        raise InputMismatch(
-            f"--target {args.target} needs the flange poses: --tfs FILE or --euler-poses FILE"
-        )
-    if len(args.images) != len(T):
-        raise InputMismatch(f"{len(args.images)} images but {len(T)} flange poses")
-    inputs = {
-        "T_base_flange": T,
-        "images": read_grey_images(args.images),
-        "K": read_camera_matrix(args.camera_matrix),
-    }
-    if args.target == "apriltag":
-        return {**inputs, "tag": TagSpec(args.tag_family, args.tag_id, args.tag_size)}
-    import cv2
-
-    if not args.board_dict.startswith("DICT_") or not hasattr(cv2.aruco, args.board_dict):
-        raise InputMismatch(
-            f"--board-dict {args.board_dict!r} is not an OpenCV ArUco dictionary (e.g. DICT_5X5_100)"
-        )
-    board = BoardSpec(dictionary=args.board_dict) if args.board is None else BoardSpec(
-        (int(args.board[0]), int(args.board[1])), args.board[2], args.board[3], args.board_dict
-    )  # fmt: skip
-    return {**inputs, "board": board}
-
-
 def add_frame_args(p: argparse.ArgumentParser) -> None:
     """--parent-frame / --child-frame, defaulting to the lab's launch file."""
     p.add_argument("--parent-frame", default=PARENT_FRAME, help=f"flange frame (default {PARENT_FRAME})")
     p.add_argument("--child-frame", default=CHILD_FRAME, help=f"camera frame (default {CHILD_FRAME})")
-
-
-def load_samples(args: argparse.Namespace) -> tuple[np.ndarray, np.ndarray]:
-    """(p_cam, T_base_flange) from whichever source the arguments name."""
-    from .inputs.lab import read_lab, read_poses
-    from .inputs.sample_files import read_joints, read_samples
-
-    if args.mcap:
-        from .inputs.mcap import read_mcap
-
-        m = read_mcap(args.mcap, from_clouds=args.from_clouds)
-        for r in m.rejected:
-            print(f"skipped: {r}", file=sys.stderr)
-        return m.p_cam, m.T_base_flange
-    if args.samples:
-        return read_samples(args.samples)
-    if args.poses and args.tfs:
-        return read_lab(args.poses, args.tfs)
-    if args.poses and args.joints:
-        p_cam, T = read_poses(args.poses), read_joints(args.joints)
-        if len(p_cam) != len(T):
-            raise InputMismatch(
-                f"{args.poses} has {len(p_cam)} blob positions but {args.joints} has {len(T)} joint rows"
-            )
-        return p_cam, T
-    raise InputMismatch("give --poses with --tfs or --joints, or --samples FILE, or --mcap FILE")
 
 
 def run_calibrate(args: argparse.Namespace) -> int:

@@ -61,9 +61,10 @@ SETTLING_OPS = ("result", "save")  # queries answered with the result of the sam
 
 
 class Service:
-    def __init__(self, cal: Calibrator, session: zenoh.Session, keys: Keys, from_clouds: bool,
+    def __init__(self, cal: Calibrator, session: zenoh.Session, keys: Keys, cloud_target: CloudTarget | None,
                  query_deadline_s: float = QUERY_DEADLINE_S) -> None:  # fmt: skip
-        self.cal, self.session, self.keys, self.from_clouds = cal, session, keys, from_clouds
+        self.cal, self.session, self.keys = cal, session, keys
+        self.cloud_target = cloud_target  # what each camera cloud gives (None: clouds not read)
         self.query_deadline_s = query_deadline_s  # a query the worker reaches later: "busy, retry"
         self.inbox = Inbox(EVENTS_MAX, CLOUDS_MAX, QUERIES_MAX)
         self.solved_generation = -1  # the store generation of the current result (or failed solve)
@@ -71,11 +72,10 @@ class Service:
         self.solve_failing = ""  # why the last solve failed, until one succeeds
         self.late_queries = 0
         self.pub = session.declare_publisher(keys.calibration_result)
-        self.cloud_target = CloudTarget()  # what --from-clouds takes from each cloud
 
     def declare(self) -> list[Any]:
         puts = [("pose", self.keys.flange_pose), ("blob", self.keys.blob)]
-        puts += [("cloud", self.keys.camera_points)] if self.from_clouds else []
+        puts += [("cloud", self.keys.camera_points)] if self.cloud_target else []
         subs: list[Any] = [self.session.declare_subscriber(key, self._on_put(kind)) for kind, key in puts]
         return subs + [
             self.session.declare_queryable(self.keys.calibrator_op(op), self._on_query(op)) for op in OPS
@@ -169,7 +169,7 @@ class Service:
         elif kind == "blob":
             obs = rosmsg.decode_blob(item)
             self.cal.on_blob(obs.stamp_ns, np.array(obs.position), obs.confidence)
-        elif kind == "cloud":
+        elif kind == "cloud" and self.cloud_target is not None:
             cloud = pointcloud.decode(item)
             rgb = cloud.rgb()
             if rgb is None:
@@ -257,15 +257,13 @@ class Service:
             options = CalibrationSolveOptions.model_validate_json(payload) if payload.strip() else None
             store.reset()
             self.cal.options = options or self.cal.options
-            self.cal.result = None
-            self.cal.pending = []  # blobs waiting for their poses belong to the old session too
+            self.cal.result, self.cal.pending = None, []  # blobs waiting for poses: the old session's
             self.samples_reply(query)
         elif op == "solve":
             opts = CalibrationSolveOptions.model_validate_json(payload) if payload.strip() else None
             result = self.solve(opts)
             self.solved_generation = store.generation
-            if opts is not None:
-                self.cal.options = opts
+            self.cal.options = opts or self.cal.options
             reply_json(query, result)
             self.pub.put(result.model_dump_json(), encoding=ENCODING_JSON)
         elif op == "save":
@@ -280,14 +278,12 @@ def main(args: argparse.Namespace) -> int:
     cal = Calibrator(
         store, PairingOptions(tolerance_ns=int(args.tolerance_ms * 1e6)), max(args.min_samples, 3),
         parent_frame=args.parent_frame, child_frame=args.child_frame,
-        options=CalibrationSolveOptions(setup=getattr(args, "setup", "eye-in-hand")),
+        options=CalibrationSolveOptions(setup=args.setup),
     )  # fmt: skip
     stop = StopFlag()
     with zenoh.open(zenoh_config(ZenohOptions.from_args(args))) as session:
-        svc = Service(cal, session, keys, args.from_clouds, args.query_deadline)
-        svc.cloud_target = CloudTarget(
-            getattr(args, "cloud_target", "blob"), getattr(args, "ball_radius", None)
-        )
+        cloud_target = CloudTarget(args.cloud_target, args.ball_radius) if args.from_clouds else None
+        svc = Service(cal, session, keys, cloud_target, args.query_deadline)
         decls = svc.declare()
         worker = run_worker("calibrator", lambda: svc.run(stop))  # first solves the resumed samples
         log.info("calibrator ready on %s (%d samples in %s)", keys.calibrator, len(store.samples), store.path)

@@ -49,6 +49,18 @@ def run_sofia(cwd: Path, *argv: str, timeout: float = 300) -> subprocess.Complet
     )
 
 
+_ran: dict[tuple[Path, tuple[str, ...]], subprocess.CompletedProcess[str]] = {}
+
+
+def run_once(cwd: Path, *argv: str) -> subprocess.CompletedProcess[str]:
+    """``sofia ARGV`` in ``cwd`` as :func:`run_sofia`, once per run: a command that several pages (or
+    both docs walks) give again gets the first run's result."""
+    key = (cwd, argv)
+    if key not in _ran:
+        _ran[key] = run_sofia(cwd, *argv)
+    return _ran[key]
+
+
 def _bag(path: Path, scenes: Path) -> None:
     """A ROS 1 bag like the lab's perception.bag: base-frame clouds on /pc_glob, a /tool_pose."""
     ros1, ros2 = get_typestore(Stores.ROS1_NOETIC), get_typestore(Stores.ROS2_HUMBLE)

@@ -2,7 +2,9 @@
 detector, calibrator and the emulated gripper of robot `panda`, as the docs start it) in the
 folder of the offline walk, then every `sofia echo`, `query`, `health`, `gripper` and `replay play`
 line of the README and the site's pages in their order, with a recording looping onto the bus as
-"Use the bus" says.
+"Use the bus" says. A command given again on another page runs once. The commands run in
+``LANES`` lanes at once, as commands typed in several terminals: the gripper's in one lane in the
+docs' order (each changes the gripper's state), every other command on its own.
 
 A command that returns must exit 0, as the exit-code table says for a job that ran. One
 that runs until stopped (`echo` without `--count`, `replay play --loop`, `up`) must still be running
@@ -17,18 +19,20 @@ from __future__ import annotations
 import contextlib
 import os
 import queue
+import re
 import shlex
 import signal
 import socket
 import subprocess
 import threading
 import time
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import pytest
 from sofia_system.launcher import sofia_executable
 
-from .conftest import run_sofia
+from .conftest import run_once, run_sofia
 from .test_docs_walk import sofia_commands
 
 WALKED = [("echo",), ("query",), ("health",), ("gripper",), ("replay", "play")]
@@ -36,6 +40,7 @@ HARDWARE = {"--port", "--robot-ip", "--serial"}
 UNTIL_STOPPED_S = 2.0  # how long a command that runs until stopped must keep running
 STARTED_S = 60.0  # a command that runs until stopped logs its first line within this
 FIRST_DETECTION_S = 60.0  # `echo` of the detections: the first one within this
+LANES = 3  # commands running at once (2 cores: most of a lane's time is a process starting or waiting)
 
 
 def walked(argv: list[str]) -> bool:
@@ -115,53 +120,108 @@ def wait_port_free(port: int = ROUTER_PORT, timeout: float = 180.0) -> None:
         time.sleep(1.0)
 
 
-def wait_healthy(cwd: Path, service: str, timeout: float = 120.0) -> None:
+_ROW = re.compile(r"^(\S+)\s+(?:\d+|-)\s+(.+?)\s+\d+$")  # a row of `sofia up`'s health table
+
+
+def up_states(log: Path) -> dict[str, str]:
+    """service -> state of the last health table `sofia up` printed into ``log`` (empty before one)."""
+    states: dict[str, str] = {}
+    for line in log.read_text(errors="replace").splitlines() if log.exists() else []:
+        if line.split()[:2] == ["service", "pid"]:
+            states = {}
+        elif m := _ROW.match(line.strip()):
+            states[m[1]] = m[2]
+    return states
+
+
+def wait_healthy(log: Path, services: tuple[str, ...], timeout: float = 120.0) -> None:
+    """Wait until the health table of the `sofia up` writing ``log`` shows each of ``services`` ok
+    (the state `sofia health SERVICE` exits 0 on; `sofia up` asks every second)."""
     deadline = time.monotonic() + timeout
-    while True:
-        r = run_sofia(cwd, "health", service, timeout=60)
-        if r.returncode == 0:
-            return
-        assert time.monotonic() < deadline, f"{service} not healthy under `sofia up`: {r.stdout} {r.stderr}"
-        time.sleep(1.0)
+    while not all(up_states(log).get(s) == "ok" for s in services):
+        assert time.monotonic() < deadline, (
+            f"{services} not all ok under `sofia up` in {timeout} s: {up_states(log)}; its log ends:\n"
+            + log.read_text(errors="replace")[-2000:]
+        )
+        time.sleep(0.2)
 
 
-@pytest.mark.timeout(900)  # 27 commands, several of which run for seconds, on a shared machine
+def lanes(commands: list[tuple[str, list[str]]]) -> list[list[tuple[str, list[str]]]]:
+    """``commands`` (``page:line``, argv), each once, in lanes that may run at the same time: the
+    gripper's in one lane in their order, every other command in a lane of its own."""
+    once = list({tuple(a): (n, a) for n, a in reversed(commands)}.values())[::-1]  # first of each
+    gripper = [(n, a) for n, a in once if a[0] == "gripper"]
+    return [gripper, *([c] for c in once if c[1][0] != "gripper")]
+
+
+def run_lane(cwd: Path, env: dict[str, str], lane: list[tuple[str, list[str]]]) -> list[str]:
+    """Run the commands of ``lane`` one after the other; what failed, one line each."""
+    failed = []
+    for n, argv in lane:
+        where = f"{n}: sofia {shlex.join(argv)}"
+        if runs_until_stopped(argv):
+            out = run_until_stopped(cwd, env, argv, FIRST_DETECTION_S if argv[0] == "echo" else 0.0)
+            if out is None:
+                failed.append(f"{where} -> exited before Ctrl-C")
+            elif argv[0] == "echo" and "objects" not in out:
+                failed.append(f"{where} printed no detection within {FIRST_DETECTION_S} s: {out[-400:]!r}")
+            continue
+        r = run_sofia(cwd, *argv, timeout=120)
+        if r.returncode != 0:
+            failed.append(f"{where} -> exit {r.returncode}: {(r.stderr or r.stdout).strip()[-400:]}")
+    return failed
+
+
+def test_up_states_reads_the_last_health_table(tmp_path: Path) -> None:
+    log = tmp_path / "up.out"
+    assert up_states(log) == {}
+    header = "service          pid  state       restarts\n"
+    log.write_text(
+        header
+        + "router         101  running            0\ndetector       102  no status          0\n"
+        + "12:00:01 INFO started gripper\n"
+        + header
+        + "detector       102  ok                 1\ngripper          -  error              2\n"
+    )
+    assert up_states(log) == {"detector": "ok", "gripper": "error"}
+
+
+def test_lanes_run_each_command_once_and_the_gripper_in_order() -> None:
+    open_, stop_ = ["gripper", "open"], ["gripper", "stop"]
+    query, health = ["query", "k"], ["health", "detector"]
+    commands = [
+        ("a:1", open_),
+        ("a:2", query),
+        ("b:1", open_),
+        ("b:2", stop_),
+        ("b:3", query),
+        ("b:4", health),
+    ]
+    assert lanes(commands) == [[("a:1", open_), ("b:2", stop_)], [("a:2", query)], [("b:4", health)]]
+
+
+@pytest.mark.timeout(600)  # 22 distinct commands, several of which run for seconds, on a shared machine
 def test_the_documented_bus_commands_run_as_written_against_sofia_up(walk_dir: Path) -> None:
     commands = [(n, a) for n, a in sofia_commands() if walked(a)]
     assert len(commands) >= 20, commands  # 27 when written
     for _, argv in sofia_commands():  # the files the walked commands read: cloud.cdr, recordings/*.mcap
         if argv[:2] in (["replay", "export"], ["replay", "convert"]):
-            r = run_sofia(walk_dir, *argv)
+            r = run_once(walk_dir, *argv)
             assert r.returncode == 0, f"sofia {shlex.join(argv)}: {r.stderr[-400:]}"
     # robot panda and the default bus, as a user's shell has them; output unbuffered through the pipes
     env = {k: v for k, v in os.environ.items() if not k.startswith("SOFIA_")} | {"PYTHONUNBUFFERED": "1"}
     wait_port_free()
     up = start(walk_dir, env, "up", log=walk_dir / "up.out")
-    failed: list[str] = []
     try:
-        for service in ("detector", "calibrator", "gripper"):
-            wait_healthy(walk_dir, service)
+        wait_healthy(walk_dir / "up.out", ("detector", "calibrator", "gripper"))
         loop_log = walk_dir / "loop.out"  # a file, not pipes nobody reads: they could fill and block it
         loop = start(
             walk_dir, env, "replay", "play", "var/recordings/scenes.mcap", "--loop", log=loop_log
         )  # as "Using it" says
         try:
-            for n, argv in commands:
-                where = f"{n}: sofia {shlex.join(argv)}"
-                if runs_until_stopped(argv):
-                    out = run_until_stopped(
-                        walk_dir, env, argv, FIRST_DETECTION_S if argv[0] == "echo" else 0.0
-                    )
-                    if out is None:
-                        failed.append(f"{where} -> exited before Ctrl-C")
-                    elif argv[0] == "echo" and "objects" not in out:
-                        failed.append(
-                            f"{where} printed no detection within {FIRST_DETECTION_S} s: {out[-400:]!r}"
-                        )
-                    continue
-                r = run_sofia(walk_dir, *argv, timeout=120)
-                if r.returncode != 0:
-                    failed.append(f"{where} -> exit {r.returncode}: {(r.stderr or r.stdout).strip()[-400:]}")
+            with ThreadPoolExecutor(LANES) as pool:
+                failed = [f for lane in pool.map(lambda ln: run_lane(walk_dir, env, ln), lanes(commands))
+                          for f in lane]  # fmt: skip
         finally:
             stop(loop, "replay play --loop", loop_log)
     finally:

@@ -91,7 +91,7 @@ def test_a_ros2_node_sees_the_detections_by_following_the_page(walk_dir: Path) -
     env = {k: v for k, v in os.environ.items() if not k.startswith("SOFIA_")} | {"PYTHONUNBUFFERED": "1"}
     up = start(walk_dir, env, *up_argv, log=walk_dir / "up-ros2.out")
     try:
-        wait_healthy(walk_dir, "detector")
+        wait_healthy(walk_dir / "up-ros2.out", ("detector",))
         loop = start(walk_dir, env, *replay_argv, log=walk_dir / "loop-ros2.out")
         node_log = walk_dir / "ros2-node.log"
         # A node session with rmw_zenoh's default config finds SofIA's graph in most fresh sessions, not in

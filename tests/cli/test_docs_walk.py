@@ -1,9 +1,9 @@
 """Walking the docs: every `sofia` command of the fenced blocks of the README and of each page of
 the documentation site that needs neither running services nor hardware runs as written, page by
-page in the page's order, in a scratch folder laid out as after `make demo` (``walk_dir``, see
-conftest), and exits 0 as the exit-code table says for a job that ran, writing the files it names.
-The how-to pages a newcomer follows with their own data ("calibrate from your own files", "detect
-on your own cloud") are walked whole.
+page in the page's order (two at a time where neither names a file the other writes), in a scratch
+folder laid out as after `make demo` (``walk_dir``, see conftest), and exits 0 as the exit-code
+table says for a job that ran, writing the files it names. The how-to pages a newcomer follows with
+their own data ("calibrate from your own files", "detect on your own cloud") are walked whole.
 
 The commands that talk to running services are walked by ``test_docs_bus_walk.py`` (and the ROS 2
 page by ``test_docs_ros2_walk.py``) against `sofia up` where they need no hardware; every one is
@@ -16,11 +16,12 @@ from __future__ import annotations
 import itertools
 import shlex
 import subprocess
+from concurrent.futures import Future, ThreadPoolExecutor
 from pathlib import Path
 
 import pytest
 
-from .conftest import run_sofia
+from .conftest import run_once
 from .test_docs_commands import ROOT, doc_pages, page_commands
 
 OFFLINE = [("synth",), ("replay", "export"), ("replay", "convert"), ("replay", "info"), ("detect",),
@@ -55,6 +56,7 @@ WALKED_WHOLE = {
     "docs/how-to/calibrate-from-files.md": 7,
     "docs/how-to/detect-your-cloud.md": 9,
 }  # page: commands
+WORKERS = 2  # commands of a page running at once (2 cores)
 
 
 def sofia_commands(page: Path | None = None) -> list[tuple[str, list[str]]]:
@@ -86,15 +88,47 @@ def test_the_how_to_pages_for_your_own_data_are_walked_whole() -> None:
         assert page in offline_pages()
 
 
-_ran: dict[tuple[str, ...], subprocess.CompletedProcess[str]] = {}  # a command on several pages: run once
+def needs(argv: list[str], before: list[str]) -> bool:
+    """Whether ``sofia ARGV`` must wait for ``sofia BEFORE``, given earlier: the same command, or one
+    names a file the other writes."""
+    return argv == before or bool(set(outputs(before)) & set(argv) or set(outputs(argv)) & set(before))
+
+
+def test_a_command_waits_for_the_commands_whose_files_it_names() -> None:
+    convert = ["replay", "convert", "perception.bag", "recordings/perception.mcap"]
+    assert needs(["detect", "recordings/perception.mcap"], convert)  # reads what convert writes
+    assert needs(["detect", "cloud.pcd", "--plot", "board.png"], ["detect", "x.npy", "--plot", "board.png"])
+    assert needs(convert, ["detect", "recordings/perception.mcap"])  # writes what the earlier one reads
+    assert needs(["calibrate", "--samples", "s.csv"], ["calibrate", "--samples", "s.csv"])
+    assert not needs(["calibrate", "--samples", "s.csv"], ["calibrate", "--samples", "s.json"])
+    assert not needs(["detect", "recording.mcap"], convert)
+
+
+Ran = subprocess.CompletedProcess[str]
+
+
+def run_page(cwd: Path, commands: list[list[str]]) -> list[Ran]:
+    """Run ``commands`` (each ``sofia ARGV`` once a run, see ``run_once``), ``WORKERS`` at a time: a
+    command starts once every earlier one it :func:`needs` has ended. Their results, in order."""
+
+    def after(earlier: list[Future[Ran]], argv: list[str]) -> Ran:
+        for f in earlier:  # submitted before this one: already running or done, so no deadlock
+            f.result()
+        return run_once(cwd, *argv)
+
+    futures: list[Future[Ran]] = []
+    with ThreadPoolExecutor(WORKERS) as pool:
+        for i, argv in enumerate(commands):
+            earlier = [f for f, b in zip(futures, commands[:i], strict=True) if needs(argv, b)]
+            futures.append(pool.submit(after, earlier, argv))
+    return [f.result() for f in futures]
 
 
 @pytest.mark.parametrize("page", offline_pages())
 def test_every_offline_command_of_the_page_runs_as_written(page: str, walk_dir: Path) -> None:
     offline = [(n, a) for n, a in sofia_commands(ROOT / page) if kind(a) == "offline"]
     failed = []
-    for n, argv in offline:
-        r = _ran.get(tuple(argv)) or _ran.setdefault(tuple(argv), run_sofia(walk_dir, *argv))
+    for (n, argv), r in zip(offline, run_page(walk_dir, [a for _, a in offline]), strict=True):
         if r.returncode != 0:
             failed.append(f"{n}: sofia {shlex.join(argv)} -> exit {r.returncode}: {r.stderr.strip()[-400:]}")
     assert not failed, "\n".join(failed)

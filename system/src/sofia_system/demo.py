@@ -25,7 +25,6 @@ from sofia_schemas import Keys
 from sofia_schemas.board import BOARD_HELP
 from sofia_schemas.keys import default_robot
 
-from . import steps
 from .bus import wait_until
 from .launcher import Launcher, ServiceSpec, all_ready, board_args
 from .summary import Summary, say
@@ -120,6 +119,8 @@ def run_demo(out: Path, recordings: Path, n_scenes: int = 12, n_poses: int = 12,
 
 def _run(out: Path, recordings: Path, n_scenes: int, n_poses: int, board: Path | None, robot: str, cell: bool,
          summary: Summary) -> int:  # fmt: skip
+    from . import steps  # the steps' checks need SciPy's rotations: loaded when the demo runs
+
     keys = Keys(robot)
     t0 = time.monotonic()
     scenes_mcap, calib_mcap = make_recordings(recordings, n_scenes, n_poses)

@@ -11,13 +11,13 @@ from typing import Any
 import numpy as np
 from sofia_runtime.output import add_json_option
 from sofia_runtime.zenoh_config import add_zenoh_args
+from sofia_schemas.frames import CAMERA_FRAME as CHILD_FRAME
+from sofia_schemas.frames import FLANGE_FRAME as PARENT_FRAME
 from sofia_schemas.keys import add_robot_arg
-from sofia_schemas.transforms import make_transform
 
 from .cli_inputs import add_target_args, load_samples, run_target
-from .fitting.calibrate import CHILD_FRAME, PARENT_FRAME
 from .inbox import QUERY_DEADLINE_S
-from .samples.store import MAX_SAMPLES
+from .samples.errors import MAX_SAMPLES
 
 log = logging.getLogger(__name__)
 
@@ -122,6 +122,8 @@ def run_calibrate(args: argparse.Namespace) -> int:
         norm = float(np.linalg.norm(g[3:]))
         if abs(norm - 1.0) < GUESS_QUAT_TOL:  # hand-typed: normalise small rounding errors
             g[3:] /= norm
+        from sofia_schemas.transforms import make_transform
+
         guess = make_transform(g[:3], g[3:])
     cal = calibrate(
         p_cam, T, guess=guess, sigma=args.noise, loss=args.loss, exclude_outliers=not args.keep_outliers,

@@ -8,9 +8,10 @@ import sys
 from typing import Any
 
 import numpy as np
+from sofia_schemas.frames import CAMERA_FRAME as CHILD_FRAME
+from sofia_schemas.frames import FLANGE_FRAME as PARENT_FRAME
 
 from .errors import InputMismatch
-from .fitting.calibrate import CHILD_FRAME, PARENT_FRAME
 
 
 def add_target_args(p: argparse.ArgumentParser) -> None:

@@ -39,6 +39,9 @@ class SaveFailed(CalibrationError):  # noqa: N818 - named as in STYLE.md
         super().__init__(f"save failed writing {path}: {reason} (that file keeps its previous content)")
 
 
+MAX_SAMPLES = 2000  # default bound: a solve of 2,000 samples takes about a second; a lab run uses ~100
+
+
 class TooManySamples(CalibrationError):  # noqa: N818 - named as in STYLE.md
     def __init__(self, limit: int) -> None:
         super().__init__(f"sample refused: the store holds its maximum of {limit} samples "

@@ -25,7 +25,7 @@ from sofia_schemas.transforms import make_transform
 from .checks import check_sample
 from .db import SampleDb
 from .durable import write_atomic
-from .errors import ImplausibleSample, SampleLogError, TooManySamples, UnknownSamples
+from .errors import MAX_SAMPLES, ImplausibleSample, SampleLogError, TooManySamples, UnknownSamples
 from .jsonl import JsonlLog, short
 from .log import Damaged
 
@@ -35,7 +35,6 @@ LOG_NAME = "samples.jsonl"  # the log of older versions, imported once
 IMPORTED_SUFFIX = ".imported"
 IDS_NAME = "samples.db.ids"  # ids below this number may have been given: survives the database's loss
 IDS_BLOCK = 1000  # ids reserved at a time (one small atomic write per block)
-MAX_SAMPLES = 2000  # default bound: a solve of 2,000 samples takes about a second; a lab run uses ~100
 
 PAGE_MAX = 500  # samples per reply of ``samples`` (about 200 kB); ask the next page with after_id
 

@@ -99,13 +99,13 @@ def test_grid_boundary_is_the_first_and_last_cell_of_every_row_and_column() -> N
         assert np.array_equal(rows, ref_rows) and np.array_equal(cols, ref_cols)
         r, c = np.nonzero(mask)
         order = rng.permutation(r.size)
-        at = boundary_points(r[order], c[order], h, w)
+        at = boundary_points(r[order], c[order], (h, w))
         assert np.array_equal(r[order][at], ref_rows) and np.array_equal(c[order][at], ref_cols)
         # a subset of the pixels: indices into all of them, the points of the gathered subset's
         subset = rng.random(r.size) < 0.6
         ro, co = r[order], c[order]
-        at = boundary_points(ro, co, h, w, subset)
-        want = boundary_points(ro[subset], co[subset], h, w)
+        at = boundary_points(ro, co, (h, w), subset)
+        want = boundary_points(ro[subset], co[subset], (h, w))
         assert np.array_equal(at, np.flatnonzero(subset)[want])
 
 

@@ -16,14 +16,12 @@ without it could be a shaded brighter one (grey, black).
 
 from __future__ import annotations
 
-import math
 from functools import lru_cache
 
 import numpy as np
 from sofia_schemas import Board
 
 from ..depth.clean import chroma, colour_distance
-from ..geometry.compiled import jit
 from ..geometry.samples import median
 from ..params import DEFAULT_PALETTE
 
@@ -55,13 +53,12 @@ def board_white(
     centres, allowed = _fields(board)
     A = np.ascontiguousarray(T_board_plane[:2, [0, 1, 3]], dtype=np.float64)
     size = np.asarray(board.field_size, dtype=np.float64)
-    white = _white_pixels(m_plane, rgb_coarse, A, size, centres, allowed, np.float32(band), WHITE_STEP)
+    white = _white_pixels(m_plane, rgb_coarse, A, size, centres, allowed, band, WHITE_STEP)
     if white.shape[0] < MIN_WHITE_PIXELS:
         return None
     return median(white)  # type: ignore[no-any-return]
 
 
-@jit
 def _white_pixels(
     m: np.ndarray,
     rgb: np.ndarray,
@@ -69,30 +66,23 @@ def _white_pixels(
     size: np.ndarray,
     centres: np.ndarray,
     allowed: np.ndarray,
-    band: np.float32,
+    band: float,
     step: int,
 ) -> np.ndarray:
     """(k, 3) uint8 colours of :func:`board_white`'s pixels: of every ``step``-th row and column of
     m (3, h, w) float32 (plane frame) within ``band`` of the plane, whose board-frame xy
     ``A[:, :2] @ m[:2] + A[:, 2]`` lies in the middle 60 % of a white field. size: (2,) a field's
     size; centres: (rows, cols, 2) and allowed (rows, cols) of :func:`_fields`."""
-    _, h, w = m.shape
-    n_rows, n_cols = allowed.shape
-    out = np.empty((((h + step - 1) // step) * ((w + step - 1) // step), 3), dtype=np.uint8)
-    k = 0
-    for r in range(0, h, step):
-        for c in range(0, w, step):
-            if not abs(m[2, r, c]) < band:  # NaN: not on the board
-                continue
-            x, y = np.float64(m[0, r, c]), np.float64(m[1, r, c])
-            bx, by = A[0, 0] * x + A[0, 1] * y + A[0, 2], A[1, 0] * x + A[1, 1] * y + A[1, 2]
-            i, j = math.floor(bx / size[0] + n_rows / 2), math.floor(by / size[1] + n_cols / 2)
-            if i < 0 or i >= n_rows or j < 0 or j >= n_cols or allowed[i, j]:
-                continue
-            if abs(bx - centres[i, j, 0]) < 0.3 * size[0] and abs(by - centres[i, j, 1]) < 0.3 * size[1]:
-                out[k] = rgb[r, c]
-                k += 1
-    return out[:k]
+    m, rgb = m[:, ::step, ::step], rgb[::step, ::step]
+    with np.errstate(invalid="ignore"):
+        on = np.abs(m[2]) < band
+    xy = A[:, :2] @ m[:2, on].astype(np.float64) + A[:, 2:]
+    ij = np.floor(xy / size[:, None] + np.array(allowed.shape)[:, None] / 2).astype(np.intp)
+    ok = np.all((ij >= 0) & (ij < np.array(allowed.shape)[:, None]), axis=0)
+    ij = ij[:, ok]
+    d = np.abs(xy[:, ok] - centres[ij[0], ij[1]].T)
+    keep = ~allowed[ij[0], ij[1]] & np.all(d < 0.3 * size[:, None], axis=0)
+    return rgb[on][ok][keep]  # type: ignore[no-any-return]
 
 
 @lru_cache(maxsize=16)

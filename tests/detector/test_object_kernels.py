@@ -56,7 +56,8 @@ def test_rim_pixels_are_the_numpy_forms() -> None:
 def test_board_white_is_the_numpy_form() -> None:
     board = Board.default()
     rng = np.random.default_rng(8)
-    centres, allowed = colour._fields(board)
+    centres = board.field_centers_board()
+    allowed = np.array([[board.is_allowed(i, j) for j in range(board.cols)] for i in range(board.rows)])
     for _ in range(20):
         T = np.eye(4)
         yaw = rng.uniform(-0.1, 0.1)

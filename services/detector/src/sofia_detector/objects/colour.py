@@ -50,47 +50,33 @@ def board_white(
     frame. Pixels of every third row and column within ``band`` of the plane and in the middle
     60 % of a white field count.
     """
-    centres, allowed = _fields(board)
-    A = np.ascontiguousarray(T_board_plane[:2, [0, 1, 3]], dtype=np.float64)
-    size = np.asarray(board.field_size, dtype=np.float64)
-    white = _white_pixels(m_plane, rgb_coarse, A, size, centres, allowed, band, WHITE_STEP)
+    white_at = _white_fields(board)
+    A = T_board_plane[:2, [0, 1, 3]]
+    m, rgb = m_plane[:, ::WHITE_STEP, ::WHITE_STEP], rgb_coarse[::WHITE_STEP, ::WHITE_STEP]
+    with np.errstate(invalid="ignore"):
+        keep = np.abs(m[2]) < band
+        at = []
+        for k in (0, 1):  # field index and place within it along the board's x, then y
+            u = (A[k, 0] * m[0] + A[k, 1] * m[1] + A[k, 2]) / board.field_size[k] + white_at.shape[k] / 2 - 1
+            i = np.floor(u)
+            keep &= np.abs(u - i - 0.5) < 0.3  # the middle 60 % of the field
+            at.append(np.fmin(np.fmax(i, -1), white_at.shape[k] - 2).astype(np.intp) + 1)  # NaN: -1
+    keep &= white_at[at[0], at[1]]
+    white = rgb[keep]
     if white.shape[0] < MIN_WHITE_PIXELS:
         return None
     return median(white)  # type: ignore[no-any-return]
 
 
-def _white_pixels(
-    m: np.ndarray,
-    rgb: np.ndarray,
-    A: np.ndarray,
-    size: np.ndarray,
-    centres: np.ndarray,
-    allowed: np.ndarray,
-    band: float,
-    step: int,
-) -> np.ndarray:
-    """(k, 3) uint8 colours of :func:`board_white`'s pixels: of every ``step``-th row and column of
-    m (3, h, w) float32 (plane frame) within ``band`` of the plane, whose board-frame xy
-    ``A[:, :2] @ m[:2] + A[:, 2]`` lies in the middle 60 % of a white field. size: (2,) a field's
-    size; centres: (rows, cols, 2) and allowed (rows, cols) of :func:`_fields`."""
-    m, rgb = m[:, ::step, ::step], rgb[::step, ::step]
-    with np.errstate(invalid="ignore"):
-        on = np.abs(m[2]) < band
-    xy = A[:, :2] @ m[:2, on].astype(np.float64) + A[:, 2:]
-    ij = np.floor(xy / size[:, None] + np.array(allowed.shape)[:, None] / 2).astype(np.intp)
-    ok = np.all((ij >= 0) & (ij < np.array(allowed.shape)[:, None]), axis=0)
-    ij = ij[:, ok]
-    d = np.abs(xy[:, ok] - centres[ij[0], ij[1]].T)
-    keep = ~allowed[ij[0], ij[1]] & np.all(d < 0.3 * size[:, None], axis=0)
-    return rgb[on][ok][keep]  # type: ignore[no-any-return]
-
-
 @lru_cache(maxsize=16)
-def _fields(board: Board) -> tuple[np.ndarray, np.ndarray]:
-    """The board's field centres (rows, cols, 2) (board frame, metres) and red fields (rows, cols)
-    bool, once per board geometry."""
-    allowed = np.array([[board.is_allowed(i, j) for j in range(board.cols)] for i in range(board.rows)])
-    return board.field_centers_board(), allowed
+def _white_fields(board: Board) -> np.ndarray:
+    """(rows + 2, cols + 2) bool: the board's white (not allowed) fields, with a border of False
+    around them (off the board), once per board geometry."""
+    white = np.zeros((board.rows + 2, board.cols + 2), dtype=bool)
+    for i in range(board.rows):
+        for j in range(board.cols):
+            white[i + 1, j + 1] = not board.is_allowed(i, j)
+    return white
 
 
 def lit_share(window: np.ndarray, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 from scipy import ndimage
 from sofia_detector.geometry.grid import grow
+from sofia_detector.geometry.points import change_frame, coords, points_in_frame
 from sofia_detector.objects import colour, rim
 from sofia_detector.objects.caps import fit_top
 from sofia_detector.objects.rim import fit_circle
@@ -31,6 +32,19 @@ def _windows(seed: int, n: int) -> list[tuple[np.ndarray, np.ndarray, np.ndarray
         rgb = np.frombuffer(bgr0.tobytes(), dtype=np.uint8).reshape(h, w, 4)[..., 2::-1]
         out.append((mask, z.astype(np.float32), rgb))
     return out
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+def test_points_in_frame_is_change_frame_of_the_copied_points(dtype: type) -> None:
+    rng = np.random.default_rng(4)
+    T = np.eye(4)
+    T[:3, :3] = np.linalg.qr(rng.normal(size=(3, 3)))[0]
+    T[:3, 3] = (0.5, -0.2, 0.1)
+    xyzw = rng.normal(0.0, 0.5, (24, 32, 4)).astype(dtype)
+    xyzw[rng.random((24, 32)) < 0.2, :3] = np.nan
+    received = np.frombuffer(xyzw.tobytes(), dtype=dtype).reshape(24, 32, 4)[..., :3]  # read-only, strided
+    for p in (received, received[::4, ::4], np.array(received), received.reshape(-1, 3)[::3]):
+        assert np.array_equal(points_in_frame(p, T), change_frame(coords(p), T), equal_nan=True)
 
 
 def _old_rim_pixels(grid: np.ndarray, h: np.ndarray, below: float) -> tuple[np.ndarray, np.ndarray]:

@@ -1,6 +1,5 @@
 """The pixel-grid helpers (OpenCV underneath) keep SciPy's conventions: 8-connected components,
-squares that ignore the pixels outside the image; the compiled colour test decides as the chroma
-distance; the grid boundary and the plane fit."""
+squares that ignore the pixels outside the image; the grid boundary and the plane fit."""
 
 from __future__ import annotations
 
@@ -8,7 +7,6 @@ import numpy as np
 import pytest
 from scipy import ndimage
 from sofia_detector.board.plane import fit_plane
-from sofia_detector.depth.clean import chroma, colour_distance, of_colour
 from sofia_detector.geometry.grid import (
     boundary_points,
     fill_holes,
@@ -99,33 +97,14 @@ def test_grid_boundary_is_the_first_and_last_cell_of_every_row_and_column() -> N
         assert np.array_equal(rows, ref_rows) and np.array_equal(cols, ref_cols)
         r, c = np.nonzero(mask)
         order = rng.permutation(r.size)
-        at = boundary_points(r[order], c[order], h, w)
+        at = boundary_points(r[order], c[order], (h, w))
         assert np.array_equal(r[order][at], ref_rows) and np.array_equal(c[order][at], ref_cols)
         # a subset of the pixels: indices into all of them, the points of the gathered subset's
         subset = rng.random(r.size) < 0.6
         ro, co = r[order], c[order]
-        at = boundary_points(ro, co, h, w, subset)
-        want = boundary_points(ro[subset], co[subset], h, w)
+        at = boundary_points(ro, co, (h, w), subset)
+        want = boundary_points(ro[subset], co[subset], (h, w))
         assert np.array_equal(at, np.flatnonzero(subset)[want])
-
-
-@pytest.mark.parametrize("tol", [0.05, 0.25, 0.6])
-def test_of_colour_decides_as_the_chroma_distance_on_every_colour(tol: float) -> None:
-    """Every 3rd level of each channel (86^3 colours, ties at the tolerance included), against
-    several objects' own colours."""
-    levels = np.arange(0, 256, 3, dtype=np.uint8)
-    px = np.stack(np.meshgrid(levels, levels, levels, indexing="ij"), axis=-1).reshape(-1, 3)
-    total = np.arange(3 * 255 + 1)  # and one colour of every sum r + g + b
-    every_sum = np.stack(
-        [np.minimum(total, 255), np.clip(total - 255, 0, 255), np.clip(total - 510, 0, 255)], 1
-    )
-    px = np.concatenate([px, every_sum.astype(np.uint8)])
-    rng = np.random.default_rng(int(tol * 100))
-    for own_rgb in ((20, 20, 25), (200, 30, 30), (240, 240, 235), tuple(rng.integers(0, 256, 3))):
-        own = chroma(np.array(own_rgb, dtype=np.float64))
-        expected = colour_distance(chroma(px), own) < tol
-        assert np.array_equal(of_colour(px, own, tol), expected)
-    assert of_colour(px[: 86**3].reshape(86, -1, 3), own, tol).shape == (86, 86 * 86)
 
 
 def test_plane_fit_drops_what_stands_on_it_and_refuses_a_line() -> None:

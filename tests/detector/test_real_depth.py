@@ -8,6 +8,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from sofia_detector import detect
+from sofia_detector.depth import raised_pixels
 from sofia_detector.depth.clean import bridge, consistent_at
 from sofia_replay.synth.realism import RealFrame, bench_frame, make_real_frame
 from sofia_schemas import Board
@@ -202,3 +203,24 @@ def test_holes_bridged_only_by_the_objects_colour() -> None:
     rgb[3:7, 6:9] = 230  # a hole in the white board's colour joins nothing
     _, n = bridge(seeds, invalid, rgb, 0.25)
     assert n == 2
+
+
+def test_raised_pixels_drops_flying_pixels_and_joins_pieces_across_holes_of_their_colour() -> None:
+    """The depth stage's entry on a 40 x 40 grid (1 mm pixels, z the height above the board): a
+    3 cm block split in two by a column without depth, a lone pixel floating at 2 cm; with the
+    block's colour in the hole the two pieces are one, without colours they stay two."""
+    v, u = np.mgrid[0:40, 0:40].astype(np.float32) * 0.001
+    z = np.zeros((40, 40), dtype=np.float32)
+    z[10:30, 10:30] = 0.03
+    z[10:30, 19] = np.nan  # missing depth through the block
+    z[35, 5] = 0.02  # a flying pixel
+    c = np.stack([u, v, z])
+    rgb = np.full((40, 40, 3), 230, dtype=np.uint8)
+    rgb[10:30, 10:30] = (30, 60, 200)
+    plain = raised_pixels(c, 0.005, 0.3, 0.003)
+    assert plain.n == 2 and not plain.mask[35, 5]
+    assert np.count_nonzero(plain.mask) == 20 * 19
+    joined = raised_pixels(c, 0.005, 0.3, 0.003, rgb, 0.25)
+    assert joined.n == 1 and joined.labels[20, 19] == joined.labels[20, 12] == joined.labels[20, 25] > 0
+    rgb[10:30, 19] = 230  # the hole in the board's colour: nothing to bridge
+    assert raised_pixels(c, 0.005, 0.3, 0.003, rgb, 0.25).n == 2

@@ -22,14 +22,9 @@ from sofia_schemas.messages import Detection
 from sofia_schemas.ros2.encoding import decode_flange
 from sofia_schemas.rosmsg import encode_flange_pose
 
-from .board.outline import fit_outline
 from .board.plane import fit_plane
-from .depth.clean import bridge, consistent_at, median_chroma, of_colour, pixel_spacing
-from .geometry.grid import boundary_points, grid_boundary
+from .depth.clean import bridge, consistent_at
 from .geometry.points import change_frame, points_in_frame
-from .objects import caps, colour, rim
-from .objects.caps import fit_top, warm_kernels
-from .objects.rim import fit_circle
 from .pick import PickParams, first_pick
 
 log = logging.getLogger(__name__)
@@ -69,59 +64,24 @@ def warm_scene(board: Board) -> tuple[np.ndarray, np.ndarray]:
 
 
 def compile_kernels() -> None:
-    """Compile every kernel of the detector (or load it from numba's cache) for the argument types
-    a detection passes, so that no detection waits for numba (``scripts/install.sh``, the
-    detector's image, the service's warm-up)."""
-    warm_kernels()
+    """Compile every kernel of the detector (or load it from numba's cache) for the argument
+    layouts a detection passes (a received cloud's read-only, strided views of its bytes; arrays;
+    every k-th pixel), so that no detection waits for numba (``scripts/install.sh``, the detector's
+    image, the service's warm-up)."""
     two = np.zeros((6, 6), dtype=bool)
     two[1, 1] = two[4, 4] = True  # two components
     xyz = np.zeros((3, 6, 6), dtype=np.float32)
     change_frame(xyz, np.eye(4))
     consistent_at(xyz, two, 0.01)
-    pixel_spacing(xyz, 4)
-    square = np.array([[0, 0], [1, 0], [1, 1], [0, 1]], dtype=np.float32).repeat(2, axis=0)
-    fit_outline(square, (1.0, 1.0), 0.1, 0.01, np.zeros((8, 2)))
-    rgb = np.zeros((6, 6, 3), dtype=np.uint8)
-    own = median_chroma(rgb, *np.nonzero(two))
-    of_colour(rgb[two], own, 0.25)
-    bridge(two, ~two, rgb, 0.25)
     x, y = (v.ravel().astype(np.float32) for v in np.mgrid[0:6, 0:6])
     fit_plane(x, y, np.zeros_like(x), (0.01,), 3)
-    _compile_layouts(two, own)
-
-
-def _compile_layouts(two: np.ndarray, own: np.ndarray) -> None:
-    """The kernels whose arguments come in several layouts: a received cloud's are read-only views
-    of its bytes (strided when it has colours), an array's are writeable; whole (C-contiguous) or
-    every k-th (strided). ``two``: (6, 6) bool with two components; ``own``: (4,) float32 chroma."""
-    f32 = np.float32
-    xyz = np.zeros((3, 6, 6), dtype=np.float32)
-    rgb = np.zeros((6, 6, 3), dtype=np.uint8)
     received = np.frombuffer(bytes(6 * 6 * 16), dtype=np.float32).reshape(6, 6, 4)  # x, y, z, bgr0
-    received_rgb = received.view(np.uint8).reshape(6, 6, 16)[..., 14:11:-1]
     plain = np.frombuffer(bytes(6 * 6 * 12), dtype=np.float32).reshape(6, 6, 3)  # without colours
     for points in (received[..., :3], plain, xyz.transpose(1, 2, 0).copy(), xyz.transpose(1, 2, 0)[:, ::2]):
         points_in_frame(points, np.eye(4))
-    index = np.arange(6)
-    centres, allowed = np.zeros((2, 2, 2)), np.zeros((2, 2), dtype=bool)
-    for colours in (received_rgb, rgb[:, ::2]):
+    received_rgb = received.view(np.uint8).reshape(6, 6, 16)[..., 14:11:-1]
+    for colours in (received_rgb, np.zeros((6, 12, 3), dtype=np.uint8)[:, ::2]):
         bridge(two, ~two, colours, 0.25)
-        for m in (xyz, xyz[:, ::2, None, 0]):  # organized clouds' coarse grid, unorganized clouds' sample
-            colour._white_pixels(m, colours, np.eye(2, 3), np.ones(2), centres, allowed, f32(0.01), 3)
-    for h in (xyz[2], xyz[2, :, ::2]):  # a whole window, part of one
-        rim._rim_pixels(two, h, f32(0.01))
-    boundary_points(index, index, 6, 6)
-    for subset in (None, index > 2):  # all of an object's pixels, a subset of them
-        boundary_points(index, index, 6, 6, subset)
-    grid_boundary(two)
-    fit_circle(np.random.default_rng(0).normal(size=(20, 2)))
-    z = xyz[2].ravel()
-    for heights in (z, z[::2], z.astype(np.float64)):
-        fit_top(heights.astype(np.float64), heights.astype(np.float64), heights)
-    b = xyz.reshape(3, -1)
-    for points in (b, b[:, ::2], np.asfortranarray(b)):
-        caps._within(points, 0.0, 0.0, 0.01)
-    caps._line_rms(np.arange(3.0), np.arange(3.0))
 
 
 def warm_payloads(board: Board) -> tuple[bytearray, bytes]:

@@ -13,7 +13,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..geometry.compiled import jit
 from ..geometry.rect import min_area_rect
 
 
@@ -27,32 +26,22 @@ class Outline:
     complete: tuple[bool, bool]
 
 
-@jit
 def _side_counts(
     xy: np.ndarray, drop_xy: np.ndarray | None, R: np.ndarray, side_band: float
 ) -> tuple[np.ndarray, np.ndarray]:
     """Per side of a rectangle (x lo, y lo, x hi, y hi; axes the columns of ``R`` (2, 2)): how many
     of the points ``xy`` (k, 2) lie within ``side_band`` of the outermost one, and how many of those
     drop outwards (``drop_xy`` (k, 2) within 60 degrees of the side's normal; None: all do)."""
-    k = xy.shape[0]
-    u = np.empty((4, k))  # outwards of each side
-    for i in range(k):
-        u[2, i] = R[0, 0] * xy[i, 0] + R[1, 0] * xy[i, 1]
-        u[3, i] = R[0, 1] * xy[i, 0] + R[1, 1] * xy[i, 1]
-        u[0, i], u[1, i] = -u[2, i], -u[3, i]
-    n_near, n_out = np.zeros(4, dtype=np.int64), np.zeros(4, dtype=np.int64)
-    for s in range(4):
-        edge = u[s].max() - side_band
-        for i in range(k):
-            if u[s, i] >= edge:
-                n_near[s] += 1
-                if drop_xy is None:
-                    n_out[s] += 1
-                    continue
-                dx, dy = drop_xy[i, 0], drop_xy[i, 1]
-                d = R[0, s % 2] * dx + R[1, s % 2] * dy
-                n_out[s] += (d if s >= 2 else -d) > 0.5 * np.hypot(dx, dy)
-    return n_near, n_out
+    uv = xy @ R
+    u = np.concatenate([-uv, uv], axis=1).T  # (4, k) outwards of each side
+    near = u >= u.max(axis=1, keepdims=True) - side_band
+    if drop_xy is None:
+        out = near
+    else:
+        d = drop_xy @ R
+        d = np.concatenate([-d, d], axis=1).T
+        out = near & (d > 0.5 * np.hypot(drop_xy[:, 0], drop_xy[:, 1]))
+    return near.sum(axis=1), out.sum(axis=1)
 
 
 def fit_outline(

@@ -30,7 +30,9 @@ class PlaneFit:
 def _refits(
     x: np.ndarray, y: np.ndarray, z: np.ndarray, thresholds: np.ndarray, min_points: int
 ) -> tuple[float, float, float, float, int]:
-    """(a, b, c, rms, n_inliers) of :func:`fit_plane`; n_inliers < ``min_points`` when it fails."""
+    """(a, b, c, rms, n_inliers) of :func:`fit_plane`; n_inliers < ``min_points`` when it fails.
+    Kept: 36 us against 147 us per cloud for its numpy form (each refit's normal equations by
+    ``A A^T`` and a 3 x 3 solve) on 28 realistic scenes (``bench/bench_detector_kernels.py``)."""
     a, b, c = z.astype(np.float64).mean(), 0.0, 0.0
     n_in = 0
     for thr in thresholds:

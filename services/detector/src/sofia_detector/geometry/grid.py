@@ -14,8 +14,6 @@ import cv2
 import numpy as np
 from scipy import ndimage
 
-from .compiled import jit
-
 cv2.setNumThreads(1)
 
 
@@ -84,35 +82,27 @@ def grid_boundary(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     Returns (rows (k,), cols (k,)) int indices of the first and last True cell of every non-empty
     row, then of every non-empty column.
     """
-    rows, cols = where(mask)
-    at = boundary_points(rows, cols, *mask.shape)
-    return rows[at], cols[at]
+    h, w = mask.shape
+    rows = np.flatnonzero(mask.any(axis=1))
+    cols = np.flatnonzero(mask.any(axis=0))
+    first_c, last_c = mask[rows].argmax(axis=1), w - 1 - mask[rows, ::-1].argmax(axis=1)
+    first_r, last_r = mask[:, cols].argmax(axis=0), h - 1 - mask[::-1, cols].argmax(axis=0)
+    return (
+        np.concatenate([rows, rows, first_r, last_r]),
+        np.concatenate([first_c, last_c, cols, cols]),
+    )
 
 
-@jit
 def boundary_points(
-    rows: np.ndarray, cols: np.ndarray, h: int, w: int, subset: np.ndarray | None = None
+    rows: np.ndarray, cols: np.ndarray, shape: tuple[int, int], subset: np.ndarray | None = None
 ) -> np.ndarray:
     """:func:`grid_boundary` of pixels given by index: (k,) indices into rows, cols (n,) (distinct
-    pixels of an (h, w) grid) of the first and last pixel of every non-empty row, then of every
-    non-empty column, in :func:`grid_boundary`'s order. subset: (n,) bool, only those pixels
-    (the indices still into rows, cols: nothing is gathered)."""
-    first_c, last_c = np.full(h, -1), np.full(h, -1)  # the point at the row's first, last column
-    first_r, last_r = np.full(w, -1), np.full(w, -1)
-    for i in range(rows.size):
-        if subset is not None and not subset[i]:
-            continue
-        r, c = rows[i], cols[i]
-        if first_c[r] < 0 or c < cols[first_c[r]]:
-            first_c[r] = i
-        if last_c[r] < 0 or c > cols[last_c[r]]:
-            last_c[r] = i
-        if first_r[c] < 0 or r < rows[first_r[c]]:
-            first_r[c] = i
-        if last_r[c] < 0 or r > rows[last_r[c]]:
-            last_r[c] = i
-    by_row, by_col = first_c[first_c >= 0], first_r[first_r >= 0]
-    return np.concatenate((by_row, last_c[last_c >= 0], by_col, last_r[last_r >= 0]))
+    pixels of a grid of ``shape``), in :func:`grid_boundary`'s order. subset: (n,) bool, only
+    those pixels."""
+    index = np.full(shape, -1, dtype=np.intp)
+    at = np.arange(rows.size) if subset is None else np.flatnonzero(subset)
+    index[rows[at], cols[at]] = at
+    return index[grid_boundary(index >= 0)]  # type: ignore[no-any-return]
 
 
 def where(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

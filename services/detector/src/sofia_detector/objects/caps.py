@@ -9,7 +9,7 @@ import math
 
 import numpy as np
 
-from ..geometry.compiled import jit, solve_spd
+from ..geometry.lsq import solve_normal
 from ..geometry.rect import Rect
 from ..geometry.samples import median
 
@@ -25,71 +25,25 @@ def fit_top(x: np.ndarray, y: np.ndarray, h: np.ndarray) -> tuple[np.ndarray, fl
     """
     if h.size < 8:
         return None
-    coef, se_d = _cap(np.asarray(x, dtype=np.float64), np.asarray(y, dtype=np.float64), h)
+    x, y = np.asarray(x, dtype=np.float64), np.asarray(y, dtype=np.float64)
+    A = np.stack([np.ones_like(x), x, y, x * x + y * y])  # (4, n)
+    h = h.astype(np.float64)
+    sol = solve_normal(A, h)
+    if sol is None:
+        return None
+    coef, M = sol
+    r = h - coef @ A
+    inv_33 = np.linalg.inv(M)[3, 3]
+    se_d = math.sqrt(float(r @ r) / (h.size - 4) * inv_33) if inv_33 >= 0 else math.nan
     return (coef, se_d) if np.all(np.isfinite(coef)) and np.isfinite(se_d) else None
 
 
-@jit
-def _cap(x: np.ndarray, y: np.ndarray, h: np.ndarray) -> tuple[np.ndarray, float]:
-    """:func:`fit_top` by its normal equations (Cholesky): (coef (4,), se_d), NaN when singular.
-    x, y: (n,) float64; h: (n,) float."""
-    n = h.size
-    M, rhs = np.zeros((4, 4)), np.zeros(4)
-    row = np.ones(4)
-    for i in range(n):
-        row[1], row[2], row[3] = x[i], y[i], x[i] * x[i] + y[i] * y[i]
-        for j in range(4):
-            rhs[j] += row[j] * np.float64(h[i])
-            for m in range(j + 1):
-                M[j, m] += row[j] * row[m]
-    for j in range(4):
-        for m in range(j):
-            M[m, j] = M[j, m]
-    coef = solve_spd(M, rhs)
-    e3 = np.zeros(4)
-    e3[3] = 1.0
-    inv_33 = solve_spd(M, e3)[3]  # (M^-1)[3, 3]
-    rss = 0.0
-    for i in range(n):
-        r = np.float64(h[i]) - (
-            coef[0] + coef[1] * x[i] + coef[2] * y[i] + coef[3] * (x[i] * x[i] + y[i] * y[i])
-        )
-        rss += r * r
-    return coef, math.sqrt(max(rss, 0.0) / (n - 4) * inv_33) if inv_33 >= 0 else math.nan
-
-
-@jit
 def _line_rms(x: np.ndarray, y: np.ndarray) -> tuple[float, float, float]:
     """Least-squares ``y = a + k x`` of (n,) float64 arrays: (a, k, rms residual)."""
-    n = x.size
-    xm, ym = x.mean(), y.mean()
-    sxy = sxx = 0.0
-    for i in range(n):
-        dx = x[i] - xm
-        sxy += dx * (y[i] - ym)
-        sxx += dx * dx
-    k = sxy / max(sxx, 1e-12)
-    a = ym - k * xm
-    ss = 0.0
-    for i in range(n):
-        e = y[i] - a - k * x[i]
-        ss += e * e
-    return a, k, math.sqrt(ss / n)
-
-
-@jit
-def _within(b: np.ndarray, cx: float, cy: float, reach: float) -> tuple[np.ndarray, np.ndarray]:
-    """(rs, hs) (k,) float64: the xy distance from (cx, cy) and the height of the points of
-    b (3, n) float32 (board frame, metres) nearer than ``reach`` to it."""
-    n = b.shape[1]
-    rs, hs = np.empty(n), np.empty(n)
-    k = 0
-    for i in range(n):
-        r = math.hypot(np.float64(b[0, i]) - cx, np.float64(b[1, i]) - cy)
-        if r < reach:
-            rs[k], hs[k] = r, b[2, i]
-            k += 1
-    return rs[:k], hs[:k]
+    dx = x - x.mean()
+    k = float(dx @ (y - y.mean())) / max(float(dx @ dx), 1e-12)
+    a = float(y.mean()) - k * float(x.mean())
+    return a, k, float(np.sqrt(np.mean((y - a - k * x) ** 2)))
 
 
 def fit_cone(b: np.ndarray, rect: Rect, noise: float) -> float | None:
@@ -102,7 +56,9 @@ def fit_cone(b: np.ndarray, rect: Rect, noise: float) -> float | None:
     """
     radius = 0.5 * float(min(rect.size))
     c = rect.center
-    rs, hs = _within(b, float(c[0]), float(c[1]), 0.8 * radius)
+    r_all = np.hypot(b[0].astype(np.float64) - c[0], b[1].astype(np.float64) - c[1])
+    near = r_all < 0.8 * radius
+    rs, hs = r_all[near], b[2, near].astype(np.float64)
     if rs.size < 20 or radius < 0.01:
         return None
     a, k, rms = _line_rms(rs, hs)
@@ -157,43 +113,22 @@ def fit_cone_apex(b: np.ndarray, noise: float) -> tuple[np.ndarray, float, float
     return p[2:].copy(), a, base
 
 
-@jit
 def cone_gauss_newton(
     x: np.ndarray, y: np.ndarray, h: np.ndarray, p: np.ndarray, iters: int, tol: float
 ) -> np.ndarray:
     """Least-squares ``h = a - k |(x, y) - (cx, cy)|`` by Gauss-Newton from ``p`` = (a, k, cx, cy)
     (4,) float64; x, y, h (n,) float64, metres. Stops after ``iters`` steps or once the apex moves
     less than ``tol`` metres; returns the parameters (4,) (NaN when a step cannot be solved)."""
-    p = p.copy()
+    p = p.astype(np.float64)
     for _ in range(iters):
-        JtJ = np.zeros((4, 4))
-        Jtr = np.zeros(4)
-        J = np.empty(4)
-        for i in range(h.size):
-            dx, dy = x[i] - p[2], y[i] - p[3]
-            d = max(math.sqrt(dx * dx + dy * dy), 1e-6)
-            r = p[0] - p[1] * d - h[i]
-            J[0], J[1], J[2], J[3] = 1.0, -d, p[1] * dx / d, p[1] * dy / d
-            for a in range(4):
-                Jtr[a] += J[a] * r
-                for b in range(a + 1):
-                    JtJ[a, b] += J[a] * J[b]
-        for a in range(4):
-            JtJ[a, a] += 1e-9
-            for b in range(a):
-                JtJ[b, a] = JtJ[a, b]
-        step = solve_spd(JtJ, Jtr)
+        dx, dy = x - p[2], y - p[3]
+        d = np.maximum(np.hypot(dx, dy), 1e-6)
+        J = np.stack([np.ones_like(d), -d, p[1] * dx / d, p[1] * dy / d])  # (4, n)
+        try:
+            step = np.linalg.solve(J @ J.T + 1e-9 * np.eye(4), J @ (p[0] - p[1] * d - h))
+        except np.linalg.LinAlgError:
+            return np.full(4, np.nan)
         p -= step
         if not np.isfinite(step).all() or max(abs(step[2]), abs(step[3])) < tol:
             break
     return p
-
-
-def warm_kernels() -> None:
-    """Compile every kernel (or load it from numba's cache), so that the first detection does not
-    wait for it."""
-    xy = np.random.default_rng(0).normal(size=(40, 2))
-    r = np.hypot(xy[:, 0], xy[:, 1])
-    cone_gauss_newton(
-        xy[:, 0].copy(), xy[:, 1].copy(), 0.05 - 2 * r, np.array([0.05, 1.0, 0.1, 0.1]), 15, 1e-5
-    )

@@ -16,14 +16,12 @@ without it could be a shaded brighter one (grey, black).
 
 from __future__ import annotations
 
-import math
 from functools import lru_cache
 
 import numpy as np
 from sofia_schemas import Board
 
 from ..depth.clean import chroma, colour_distance
-from ..geometry.compiled import jit
 from ..geometry.samples import median
 from ..params import DEFAULT_PALETTE
 
@@ -52,55 +50,33 @@ def board_white(
     frame. Pixels of every third row and column within ``band`` of the plane and in the middle
     60 % of a white field count.
     """
-    centres, allowed = _fields(board)
-    A = np.ascontiguousarray(T_board_plane[:2, [0, 1, 3]], dtype=np.float64)
-    size = np.asarray(board.field_size, dtype=np.float64)
-    white = _white_pixels(m_plane, rgb_coarse, A, size, centres, allowed, np.float32(band), WHITE_STEP)
+    white_at = _white_fields(board)
+    A = T_board_plane[:2, [0, 1, 3]]
+    m, rgb = m_plane[:, ::WHITE_STEP, ::WHITE_STEP], rgb_coarse[::WHITE_STEP, ::WHITE_STEP]
+    with np.errstate(invalid="ignore"):
+        keep = np.abs(m[2]) < band
+        at = []
+        for k in (0, 1):  # field index and place within it along the board's x, then y
+            u = (A[k, 0] * m[0] + A[k, 1] * m[1] + A[k, 2]) / board.field_size[k] + white_at.shape[k] / 2 - 1
+            i = np.floor(u)
+            keep &= np.abs(u - i - 0.5) < 0.3  # the middle 60 % of the field
+            at.append(np.fmin(np.fmax(i, -1), white_at.shape[k] - 2).astype(np.intp) + 1)  # NaN: -1
+    keep &= white_at[at[0], at[1]]
+    white = rgb[keep]
     if white.shape[0] < MIN_WHITE_PIXELS:
         return None
     return median(white)  # type: ignore[no-any-return]
 
 
-@jit
-def _white_pixels(
-    m: np.ndarray,
-    rgb: np.ndarray,
-    A: np.ndarray,
-    size: np.ndarray,
-    centres: np.ndarray,
-    allowed: np.ndarray,
-    band: np.float32,
-    step: int,
-) -> np.ndarray:
-    """(k, 3) uint8 colours of :func:`board_white`'s pixels: of every ``step``-th row and column of
-    m (3, h, w) float32 (plane frame) within ``band`` of the plane, whose board-frame xy
-    ``A[:, :2] @ m[:2] + A[:, 2]`` lies in the middle 60 % of a white field. size: (2,) a field's
-    size; centres: (rows, cols, 2) and allowed (rows, cols) of :func:`_fields`."""
-    _, h, w = m.shape
-    n_rows, n_cols = allowed.shape
-    out = np.empty((((h + step - 1) // step) * ((w + step - 1) // step), 3), dtype=np.uint8)
-    k = 0
-    for r in range(0, h, step):
-        for c in range(0, w, step):
-            if not abs(m[2, r, c]) < band:  # NaN: not on the board
-                continue
-            x, y = np.float64(m[0, r, c]), np.float64(m[1, r, c])
-            bx, by = A[0, 0] * x + A[0, 1] * y + A[0, 2], A[1, 0] * x + A[1, 1] * y + A[1, 2]
-            i, j = math.floor(bx / size[0] + n_rows / 2), math.floor(by / size[1] + n_cols / 2)
-            if i < 0 or i >= n_rows or j < 0 or j >= n_cols or allowed[i, j]:
-                continue
-            if abs(bx - centres[i, j, 0]) < 0.3 * size[0] and abs(by - centres[i, j, 1]) < 0.3 * size[1]:
-                out[k] = rgb[r, c]
-                k += 1
-    return out[:k]
-
-
 @lru_cache(maxsize=16)
-def _fields(board: Board) -> tuple[np.ndarray, np.ndarray]:
-    """The board's field centres (rows, cols, 2) (board frame, metres) and red fields (rows, cols)
-    bool, once per board geometry."""
-    allowed = np.array([[board.is_allowed(i, j) for j in range(board.cols)] for i in range(board.rows)])
-    return board.field_centers_board(), allowed
+def _white_fields(board: Board) -> np.ndarray:
+    """(rows + 2, cols + 2) bool: the board's white (not allowed) fields, with a border of False
+    around them (off the board), once per board geometry."""
+    white = np.zeros((board.rows + 2, board.cols + 2), dtype=bool)
+    for i in range(board.rows):
+        for j in range(board.cols):
+            white[i + 1, j + 1] = not board.is_allowed(i, j)
+    return white
 
 
 def lit_share(window: np.ndarray, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:

@@ -17,8 +17,7 @@ import math
 
 import numpy as np
 
-from ..geometry.compiled import jit, solve_spd
-from ..geometry.grid import fill_holes
+from ..geometry.grid import fill_holes, grow, where
 from ..geometry.rect import Rect
 from ..geometry.samples import median
 from ..segment.points import ObjectPoints
@@ -53,8 +52,7 @@ def rim_xy(obj: ObjectPoints, face: np.ndarray, top: float, drop: float) -> tupl
     r1, c1 = min(int(fr.max()) + 2, obj.shape[0]), min(int(fc.max()) + 2, obj.shape[1])
     grid = np.zeros((r1 - r0, c1 - c0), dtype=bool)
     grid[fr - r0, fc - c0] = True
-    # the float32 heights are compared with a float32 threshold (as numpy compares them with a float)
-    r, c = _rim_pixels(fill_holes(grid), obj.window[2, r0:r1, c0:c1], np.float32(top - drop))
+    r, c = _rim_pixels(fill_holes(grid), obj.window[2, r0:r1, c0:c1], top - drop)
     xy = obj.window[:2, r + r0, c + c0].T.astype(np.float64)
     # pixel spacing: a sample of the top's pixels and their right-hand neighbours
     k = max(1, fr.size // 200)
@@ -67,64 +65,33 @@ def rim_xy(obj: ObjectPoints, face: np.ndarray, top: float, drop: float) -> tupl
     return xy[np.isfinite(xy).all(axis=1)], spacing
 
 
-@jit
-def _rim_pixels(grid: np.ndarray, h: np.ndarray, below: np.float32) -> tuple[np.ndarray, np.ndarray]:
+def _rim_pixels(grid: np.ndarray, h: np.ndarray, below: float) -> tuple[np.ndarray, np.ndarray]:
     """(rows, cols) (k,) of the pixels of a top ``grid`` (h, w) bool with a neighbour off it whose
     whole 3 x 3 neighbourhood is the top or lower than ``below`` (heights ``h`` (h, w) float32,
     NaN where missing; outside the grid's box is unseen: not lower), in row-major order."""
-    rows, cols = grid.shape
-    out_r, out_c = np.empty(rows * cols, dtype=np.intp), np.empty(rows * cols, dtype=np.intp)
-    k = 0
-    for r in range(1, rows - 1):  # a pixel on the box's border has unseen neighbours
-        for c in range(1, cols - 1):
-            if not grid[r, c]:
-                continue
-            off, ok = False, True
-            for rr in range(r - 1, r + 2):
-                for cc in range(c - 1, c + 2):
-                    if not grid[rr, cc]:
-                        off = True
-                        ok = ok and h[rr, cc] < below
-            if off and ok:
-                out_r[k], out_c[k] = r, c
-                k += 1
-    return out_r[:k], out_c[:k]
+    with np.errstate(invalid="ignore"):
+        higher = ~grid & ~(h < below)  # off the top and not lower (NaN: unseen)
+    rim = grid & grow(~grid, 3) & ~grow(higher, 3)
+    rim[[0, -1]], rim[:, [0, -1]] = False, False  # a pixel on the box's border has unseen neighbours
+    return where(rim)
 
 
 def fit_circle(xy: np.ndarray) -> tuple[np.ndarray, float, float]:
-    """Least-squares circle ``x^2 + y^2 + D x + E y + F = 0`` through xy (k, 2), k >= 3:
-    (centre (2,), radius, rms radial residual), all in the units of xy; radius and rms are inf
-    for collinear points."""
-    cx, cy, r, rms = _circle(np.ascontiguousarray(xy, dtype=np.float64))
-    return np.array([cx, cy]), r, rms
-
-
-@jit
-def _circle(xy: np.ndarray) -> tuple[float, float, float, float]:
-    """:func:`fit_circle` of xy (k, 2) float64 by its normal equations, centred on the points'
-    mean (better conditioned), solved by Cholesky: (centre x, centre y, radius, rms)."""
-    n = xy.shape[0]
-    mx, my = xy[:, 0].mean(), xy[:, 1].mean()
-    M, rhs = np.zeros((3, 3)), np.zeros(3)
-    row = np.ones(3)
-    for i in range(n):
-        row[0], row[1] = xy[i, 0] - mx, xy[i, 1] - my
-        q = -(row[0] * row[0] + row[1] * row[1])
-        for j in range(3):
-            rhs[j] += row[j] * q
-            for m in range(3):
-                M[j, m] += row[j] * row[m]
-    spread = M[0, 0] + M[1, 1]
-    sol = solve_spd(M, rhs)
-    if M[0, 0] * M[1, 1] - M[0, 1] * M[0, 1] <= 1e-12 * spread * spread or not np.isfinite(sol).all():
-        return mx, my, math.inf, math.inf  # collinear points
-    cx, cy = -sol[0] / 2, -sol[1] / 2
-    r = math.sqrt(max(cx * cx + cy * cy - sol[2], 0.0))
-    ss = 0.0
-    for i in range(n):
-        e = math.hypot(xy[i, 0] - mx - cx, xy[i, 1] - my - cy) - r
-        ss += e * e
-    return cx + mx, cy + my, r, math.sqrt(ss / n)
+    """Least-squares circle ``x^2 + y^2 + D x + E y + F = 0`` through xy (k, 2), k >= 3, centred on
+    the points' mean: (centre (2,), radius, rms radial residual), all in the units of xy; radius
+    and rms are inf for collinear points."""
+    xy = np.asarray(xy, dtype=np.float64)
+    m = xy.mean(axis=0)
+    uv = (xy - m).T  # (2, k)
+    M = uv @ uv.T
+    if M[0, 0] * M[1, 1] - M[0, 1] ** 2 <= 1e-12 * np.trace(M) ** 2:
+        return m, math.inf, math.inf  # collinear points
+    A = np.vstack([uv, np.ones(uv.shape[1])])
+    sol = np.linalg.solve(A @ A.T, A @ -(uv * uv).sum(axis=0))
+    c = -sol[:2] / 2
+    r = math.sqrt(max(float(c @ c - sol[2]), 0.0))
+    rms = float(np.sqrt(np.mean((np.hypot(*(uv - c[:, None])) - r) ** 2)))
+    return c + m, r, rms
 
 
 def widest_gap(xy: np.ndarray, center: np.ndarray) -> float:

@@ -23,7 +23,6 @@ from ..geometry.points import points_in_frame
 from ..geometry.rect import Rect, min_area_rect
 from ..geometry.samples import median
 from ..segment.points import ObjectPoints
-from .holes import dlt
 
 RAISED = 0.005  # metres: a pixel with depth this close to the board is the board
 MIN_MISSING = 0.5  # share of the silhouette without depth below which the slivers are the object
@@ -45,9 +44,30 @@ class Silhouette:
     rect: Rect | None = None
 
 
+def _normalising(p: np.ndarray) -> np.ndarray:
+    """(d + 1, d + 1) similarity moving points p (n, d) to their centroid at a mean distance of
+    sqrt(d) (Hartley's conditioning)."""
+    d, m = p.shape[1], p.mean(axis=0)
+    s = np.sqrt(d) / max(float(np.mean(np.linalg.norm(p - m, axis=1))), 1e-12)
+    T = np.diag([s] * d + [1.0])
+    T[:d, d] = -s * m
+    return T
+
+
+def dlt(xyz: np.ndarray, pix: np.ndarray) -> np.ndarray | None:
+    """(3, 4) camera projection P with ``P [xyz 1]^T ~ [pix 1]^T`` by the normalised direct linear
+    transform (OpenCV fits homographies, not projections); None when the points do not fix it."""
+    Ts, Td = _normalising(xyz), _normalising(pix)
+    X = np.hstack([xyz, np.ones((len(xyz), 1))]) @ Ts.T
+    u, v = (np.hstack([pix, np.ones((len(pix), 1))]) @ Td.T)[:, :2].T
+    zero = np.zeros_like(X)
+    A = np.vstack([np.hstack([X, zero, -u[:, None] * X]), np.hstack([zero, X, -v[:, None] * X])])
+    _, s, vt = np.linalg.svd(A, full_matrices=False)
+    return None if s[-2] < 1e-9 * s[0] else np.asarray(np.linalg.inv(Td) @ vt[-1].reshape(3, 4) @ Ts)
+
+
 def fit_camera(pix: np.ndarray, xyz: np.ndarray) -> np.ndarray | None:
-    """(3, 4) projection P with ``P [x y z 1]^T ~ [col row 1]^T`` by the normalised direct linear
-    transform (:func:`.holes.dlt`). pix: (n, 2) (col, row); xyz: (n, 3) board frame, metres, not
+    """(3, 4) projection P with ``P [x y z 1]^T ~ [col row 1]^T`` by :func:`dlt`. pix: (n, 2) (col, row); xyz: (n, 3) board frame, metres, not
     coplanar. None when the points do not fix it or it reprojects them worse than
     :data:`MAX_REPROJECTION`."""
     if pix.shape[0] < 12 or float(np.std(xyz[:, 2])) < 0.005:

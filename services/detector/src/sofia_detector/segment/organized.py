@@ -11,8 +11,8 @@ from collections.abc import Iterator
 import numpy as np
 from scipy import ndimage
 
-from ..depth.clean import bridge, consistent_at
-from ..geometry.grid import label8, masked_points, where
+from ..depth import raised_pixels
+from ..geometry.grid import masked_points, where
 from ..geometry.points import points_in_frame
 from ..geometry.samples import median
 from ..params import DetectorParams
@@ -52,11 +52,11 @@ def organized_objects(
     """
     s = params.stride
     H, W = points_base.shape[:2]
-    with np.errstate(invalid="ignore"):
-        seeds = (m_coarse[2] > levels.seed) & (m_coarse[2] < params.max_height)
-    seeds = consistent_at(m_coarse, seeds, levels.delta_coarse)
     rgb_coarse = None if rgb is None else rgb[::s, ::s]
-    labels, n = bridge(seeds, ~np.isfinite(m_coarse[2]), rgb_coarse, levels.colour_tol)
+    raised = raised_pixels(
+        m_coarse, levels.seed, params.max_height, levels.delta_coarse, rgb_coarse, levels.colour_tol
+    )
+    seeds, labels, n = raised.mask, raised.labels, raised.n
     claimed: list[tuple[int, int, np.ndarray]] = []  # (row, col, mask) of the objects found so far
     pad = 2
     for i, sl in enumerate(ndimage.find_objects(labels, max_label=n), start=1):
@@ -75,10 +75,8 @@ def organized_objects(
         r0, r1 = max((sl[0].start - pad) * s, 0), min((sl[0].stop + pad) * s, H)
         c0, c1 = max((sl[1].start - pad) * s, 0), min((sl[1].stop + pad) * s, W)
         b = points_in_frame(points_base[r0:r1, c0:c1], T_base_board)
-        with np.errstate(invalid="ignore"):
-            mask = (b[2] > levels.point) & (b[2] < params.max_height)
-        mask = consistent_at(b, mask, levels.delta)
-        wl, n_pieces = label8(mask)
+        window = raised_pixels(b, levels.point, params.max_height, levels.delta)
+        wl, n_pieces = window.labels, window.n
         hits = wl[rows - r0, cols - c0]
         hits = hits[hits > 0]
         if hits.size == 0:

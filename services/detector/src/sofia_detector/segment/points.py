@@ -32,7 +32,7 @@ class ObjectPoints:
         convex hull of their footprint."""
         if self.rows is None or self.cols is None:
             return hull((self.b if subset is None else self.b[:, subset])[:2].T)
-        return self.b[:2, boundary_points(self.rows, self.cols, self.shape[0], self.shape[1], subset)].T
+        return self.b[:2, boundary_points(self.rows, self.cols, self.shape, subset)].T
 
 
 def inside(xy: np.ndarray, half: np.ndarray) -> bool:

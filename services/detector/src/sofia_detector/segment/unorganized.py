@@ -16,6 +16,8 @@ from collections.abc import Iterator
 
 import numpy as np
 from scipy import ndimage
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
 
 from ..depth.clean import chroma, colour_distance, label_means
 from ..geometry.grid import label8, max_filter
@@ -64,20 +66,14 @@ def join_pieces(labels: np.ndarray, n: int, empty: np.ndarray, pairs: list[tuple
             break
         grown[step] = around[step]
     wanted = set(pairs)
-    parent = np.arange(n + 1)
-
-    def root(i: int) -> int:
-        while parent[i] != i:
-            i = parent[i]
-        return i
-
+    links = set()
     for a, b in ((grown[:, :-1], grown[:, 1:]), (grown[:-1], grown[1:]), (grown[:-1, :-1], grown[1:, 1:]),
                  (grown[:-1, 1:], grown[1:, :-1])):  # fmt: skip
         meet = (a > 0) & (b > 0) & (a != b)
-        for i, j in set(zip(a[meet].tolist(), b[meet].tolist(), strict=True)):
-            if (min(i, j), max(i, j)) in wanted:
-                parent[root(i)] = root(j)
-    roots = np.array([root(i) for i in range(n + 1)])
+        links |= {(min(i, j), max(i, j)) for i, j in zip(a[meet].tolist(), b[meet].tolist(), strict=True)}
+    i, j = np.array(sorted(links & wanted), dtype=np.intp).reshape(-1, 2).T
+    graph = coo_matrix((np.ones(i.size), (i, j)), shape=(n + 1, n + 1))
+    _, roots = connected_components(graph, directed=False)
     return roots[labels]  # type: ignore[no-any-return]
 
 

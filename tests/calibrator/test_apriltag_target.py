@@ -18,6 +18,7 @@ from sofia_calibrator.targets.apriltag import TagNotFound, TagSpec, render_tag_v
 from sofia_calibrator.targets.poses import hand_eye_from_poses
 
 from ..conftest import SOFIA
+from .conftest import write_views
 
 cv2 = pytest.importorskip("cv2")
 
@@ -62,18 +63,11 @@ def test_a_view_without_the_tag_and_a_bad_family_are_named() -> None:
 
 
 def test_the_command_calibrates_an_apriltag(tmp_path: Path) -> None:
-    from scipy.spatial.transform import Rotation
-
     X, A, _, images = _views(8, 42)
-    names = []
-    for i, img in enumerate(images):
-        names.append(str(tmp_path / f"view{i}.png"))
-        cv2.imwrite(names[-1], img)
-    rows = np.c_[Rotation.from_matrix(A[:, :3, :3]).as_euler("xyz"), 1e3 * A[:, :3, 3]]
-    np.savetxt(tmp_path / "poses.dat", rows, delimiter=",")
+    names, poses = write_views(tmp_path, images, A)
     out = subprocess.run(
         [SOFIA, "calibrate", "--target", "apriltag", "--images", *names, "--camera-matrix", "600 600 320 240",
-         "--tag-size", "0.1", "--tag-id", "7", "--euler-poses", str(tmp_path / "poses.dat"), "--json"],
+         "--tag-size", "0.1", "--tag-id", "7", "--euler-poses", str(poses), "--json"],
         capture_output=True, text=True, timeout=120,
     )  # fmt: skip
     assert out.returncode == 0, out.stderr

@@ -16,6 +16,7 @@ from sofia_calibrator.fitting.simulate import random_T_flange_cam, views_of
 from sofia_calibrator.targets.poses import hand_eye_from_poses
 
 from ..conftest import SOFIA
+from .conftest import write_views
 
 pytest.importorskip("cv2")
 from sofia_calibrator.targets.charuco import BoardNotFound, BoardSpec, board_poses, render_view
@@ -58,17 +59,9 @@ def test_a_view_without_the_board_is_named() -> None:
 
 
 def test_the_command_calibrates_a_charuco_board(tmp_path: Path) -> None:
-    import cv2
-    from scipy.spatial.transform import Rotation
-
     X, A, _, images = _views(8, 32)
-    names = []
-    for i, img in enumerate(images):
-        names.append(str(tmp_path / f"view{i}.png"))
-        cv2.imwrite(names[-1], img)
-    rows = np.c_[Rotation.from_matrix(A[:, :3, :3]).as_euler("xyz"), 1e3 * A[:, :3, 3]]
-    np.savetxt(tmp_path / "poses.dat", rows, delimiter=",")
-    base = [SOFIA, "calibrate", "--target", "charuco", "--euler-poses", str(tmp_path / "poses.dat"),
+    names, poses = write_views(tmp_path, images, A)
+    base = [SOFIA, "calibrate", "--target", "charuco", "--euler-poses", str(poses),
             "--camera-matrix", "600 600 320 240"]  # fmt: skip
     out = subprocess.run([*base, "--images", *names, "--board", "7", "5", "0.04", "0.03", "--json"],
                          capture_output=True, text=True, timeout=120)  # fmt: skip

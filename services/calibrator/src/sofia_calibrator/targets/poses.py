@@ -70,9 +70,7 @@ def opencv_hand_eye(A: np.ndarray, B: np.ndarray) -> dict[str, np.ndarray]:
             )  # fmt: skip
         except cv2.error:
             continue
-        X = np.eye(4)
-        X[:3, :3], X[:3, 3] = R, np.ravel(t)
-        if np.isfinite(X).all() and abs(np.linalg.det(X[:3, :3]) - 1.0) < 1e-3:  # a rotation
+        if (X := _rigid(R, t)) is not None:
             out[name] = X
     A_inv = np.linalg.inv(A)  # base2gripper; B is world2cam (the target as the world)
     for name in ROBOT_WORLD_METHODS:
@@ -83,11 +81,17 @@ def opencv_hand_eye(A: np.ndarray, B: np.ndarray) -> dict[str, np.ndarray]:
             )  # fmt: skip
         except cv2.error:
             continue
-        T_cam_flange = np.eye(4)
-        T_cam_flange[:3, :3], T_cam_flange[:3, 3] = R, np.ravel(t)
-        if np.isfinite(T_cam_flange).all() and abs(np.linalg.det(R) - 1.0) < 1e-3:
-            out[f"RW_{name}"] = np.asarray(np.linalg.inv(T_cam_flange), dtype=np.float64)
+        if (T_cam_flange := _rigid(R, t)) is not None:
+            out[f"RW_{name}"] = np.linalg.inv(T_cam_flange)
     return out
+
+
+def _rigid(R: np.ndarray, t: np.ndarray) -> np.ndarray | None:
+    """(4, 4) float64 from OpenCV's R (3, 3) and t (3, 1); None when not finite or R is no rotation
+    (a failed method can return a reflection)."""
+    T = np.eye(4)
+    T[:3, :3], T[:3, 3] = R, np.ravel(t)
+    return T if np.isfinite(T).all() and abs(np.linalg.det(T[:3, :3]) - 1.0) < 1e-3 else None
 
 
 def fixed_target(A: np.ndarray, X: np.ndarray, B: np.ndarray) -> np.ndarray:

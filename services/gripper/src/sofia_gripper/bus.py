@@ -56,6 +56,7 @@ class DxlBus:
         self.port: PortHandler | None = None
         self.lock = threading.RLock()
         self.last_status_error = 0
+        self.stale_replies = 0  # status packets of another size dropped (late replies to earlier requests)
 
     # --- line -------------------------------------------------------------
     def open(self) -> None:
@@ -118,27 +119,33 @@ class DxlBus:
 
     def _status(self, port: PortHandler, what: str, length: int) -> tuple[list[int], int, int]:
         """The servo's status packet of a read of ``length`` bytes: (data, result, error), as the
-        SDK's ``readRx`` but with the packet's parameter count checked (raises :class:`CommFailed`
-        naming ``what`` for a reply of another size)."""
+        SDK's ``readRx`` but with the packet's parameter count checked. Protocol 2.0 replies carry no
+        request id, so a packet of another size is a late reply to an earlier request (the host gave
+        up on it) or a cut one: it is dropped, counted in ``stale_replies``, and the read waits for
+        its own reply within its timeout; when none comes, :class:`CommFailed` names the dropped one."""
         p2 = self.protocol == 2
         id_at, error_at = (sdk2.PKT_ID, sdk2.PKT_ERROR) if p2 else (sdk1.PKT_ID, sdk1.PKT_ERROR)
+        dropped = -1
         while True:
             packet, result = self.ph.rxPacket(port, False) if p2 else self.ph.rxPacket(port)
-            if result != COMM_SUCCESS or packet[id_at] == self.dxl_id:
-                break
-        if result != COMM_SUCCESS:
-            return [], result, 0
-        if p2:  # LENGTH counts INST, ERROR, the data and the CRC
-            n_data = DXL_MAKEWORD(packet[sdk2.PKT_LENGTH_L], packet[sdk2.PKT_LENGTH_H]) - 4
-        else:  # LENGTH counts ERROR, the data and the checksum
-            n_data = packet[sdk1.PKT_LENGTH] - 2
-        if n_data != length:
-            self._drop_stale_input()
-            raise CommFailed(
-                what,
-                f"status packet with {n_data} data bytes, expected {length}: a stale or cut reply, dropped",
-            )
-        return list(packet[error_at + 1 : error_at + 1 + length]), result, packet[error_at]
+            if result != COMM_SUCCESS:
+                if dropped < 0:
+                    return [], result, 0
+                self._drop_stale_input()
+                raise CommFailed(
+                    what,
+                    f"status packet with {dropped} data bytes, expected {length}: a stale or cut reply, dropped",
+                )
+            if packet[id_at] != self.dxl_id:
+                continue
+            if p2:  # LENGTH counts INST, ERROR, the data and the CRC
+                n_data = DXL_MAKEWORD(packet[sdk2.PKT_LENGTH_L], packet[sdk2.PKT_LENGTH_H]) - 4
+            else:  # LENGTH counts ERROR, the data and the checksum
+                n_data = packet[sdk1.PKT_LENGTH] - 2
+            if n_data == length:
+                return list(packet[error_at + 1 : error_at + 1 + length]), result, packet[error_at]
+            dropped = n_data
+            self.stale_replies += 1
 
     def read(self, name: str) -> int:
         f = self.table[name]

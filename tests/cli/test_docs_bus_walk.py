@@ -219,6 +219,14 @@ def test_the_documented_bus_commands_run_as_written_against_sofia_up(walk_dir: P
             walk_dir, env, "replay", "play", "var/recordings/scenes.mcap", "--loop", log=loop_log
         )  # as "Using it" says
         try:
+            # as a user reads the docs: the recording is playing (a detection is out) before the
+            # commands that ask for the latest cloud run
+            first = run_sofia(walk_dir, "echo", "sofia/panda/detector/detections", "--count", "1",
+                              "--timeout", str(FIRST_DETECTION_S), timeout=2 * FIRST_DETECTION_S)  # fmt: skip
+            assert first.returncode == 0 and "objects" in first.stdout, (
+                f"no detection within {FIRST_DETECTION_S} s of `replay play --loop`: {first.stderr[-400:]}; "
+                f"its log ends:\n{loop_log.read_text(errors='replace')[-1000:]}"
+            )
             with ThreadPoolExecutor(LANES) as pool:
                 failed = [f for lane in pool.map(lambda ln: run_lane(walk_dir, env, ln), lanes(commands))
                           for f in lane]  # fmt: skip

@@ -131,10 +131,16 @@ class ZenohOptions:
 def add_zenoh_args(parser: argparse.ArgumentParser) -> None:
     """Add ``--zenoh-mode``, ``--connect``, ``--listen``, ``--zenoh-config`` to a parser."""
     g = parser.add_argument_group("zenoh")
-    g.add_argument("--zenoh-mode", choices=MODES, default=None, help="session mode (default peer)")
-    g.add_argument("--connect", action="append", metavar="ENDPOINT", help="e.g. tcp/127.0.0.1:7447")
-    g.add_argument("--listen", action="append", metavar="ENDPOINT", help="e.g. tcp/127.0.0.1:0")
-    g.add_argument("--zenoh-config", metavar="FILE", help="json5 Zenoh config file")
+    g.add_argument("--zenoh-mode", choices=MODES, default=None,
+                   help="session mode (default $SOFIA_ZENOH_MODE, else peer)")  # fmt: skip
+    g.add_argument("--connect", action="append", metavar="ENDPOINT",
+                   help="connect to this endpoint, e.g. tcp/127.0.0.1:7447; repeatable "
+                   "(default $SOFIA_ZENOH_CONNECT, else this user's local sockets)")  # fmt: skip
+    g.add_argument("--listen", action="append", metavar="ENDPOINT",
+                   help="listen on this endpoint too, e.g. tcp/127.0.0.1:0; repeatable "
+                   "(default $SOFIA_ZENOH_LISTEN, else a socket in this user's socket directory)")  # fmt: skip
+    g.add_argument("--zenoh-config", metavar="FILE",
+                   help="json5 Zenoh config file (default $SOFIA_ZENOH_CONFIG, else none)")  # fmt: skip
 
 
 def _explicit(options: ZenohOptions, env: dict[str, str]) -> dict[str, object]:

@@ -22,7 +22,11 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     robot = s.add_mutually_exclusive_group(required=True)
     robot.add_argument("--robot-ip", help="the robot's FCI address (e.g. 172.16.0.2)")
     robot.add_argument("--sim", action="store_true", help="start franky-sim (MuJoCo) and connect to it")
-    s.add_argument("--config", type=Path, help="arm YAML/JSON config (limits, workspace box, margins)")
+    s.add_argument(
+        "--config",
+        type=Path,
+        help="arm YAML/JSON config (limits, workspace box, margins; default: the built-in values)",
+    )
     s.add_argument("--model", choices=("panda", "fr3"), help="joint limits of this robot (default panda)")
     s.add_argument("--max-speed", type=float, metavar="F",
                    help="relative velocity, acceleration and jerk limit, (0, 1] (default 0.1)")  # fmt: skip
@@ -40,7 +44,7 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
         type=Path,
         dest="board_file",
         metavar="FILE",
-        help="board config: its surface_z is the surface the tool keeps clear of",
+        help="board config: its surface_z is the surface the tool keeps clear of (default: none, see --surface-z)",
     )
     s.add_argument(
         "--surface-z",
@@ -50,7 +54,7 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     )
     s.add_argument("--transform", type=Path, dest="transform_file", metavar="FILE",
                    help="flange->camera transform (YAML/JSON with matrix) for the survey when no calibrator "
-                        "answers")  # fmt: skip
+                        "answers (default: none)")  # fmt: skip
     s.add_argument("--sim-world", type=Path, metavar="FILE",
                    help="the simulated world's file, shared with `camera serve --sim` and the gripper emulator "
                         "(default: $SOFIA_SIM_WORLD): objects between the fingers are carried with the flange")  # fmt: skip

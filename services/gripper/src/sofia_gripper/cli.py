@@ -22,7 +22,11 @@ ACTIONS = ("open", "close", "grasp", "move", "release", "stop", "torque", "reboo
 
 def _add_servo_args(p: argparse.ArgumentParser) -> None:
     g = p.add_argument_group("servo")
-    g.add_argument("--config", type=Path, help="gripper YAML config (see `sofia gripper calibrate`)")
+    g.add_argument(
+        "--config",
+        type=Path,
+        help="gripper YAML config (see `sofia gripper calibrate`; default: the built-in MX-64 values)",
+    )
     g.add_argument("--port", help="serial port (default /dev/ttyUSB0)")
     g.add_argument("--baud", type=int, metavar="BPS", help="baud rate, bit/s (default 57600)")
     g.add_argument("--id", type=int, dest="dxl_id", help="Dynamixel id, 0-252 (default 1)")
@@ -49,13 +53,18 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     add_robot_arg(s)
     s.add_argument("--emulate", action="store_true", help="run against an emulated MX-64 (its own process)")
     s.add_argument(
-        "--object-width", type=float, metavar="MM", help="width of the emulated object, mm (--emulate)"
+        "--object-width",
+        type=float,
+        metavar="MM",
+        help="width of the emulated object, mm (--emulate; default: no object)",
     )
 
     e = add_command(gs, "emulate", _emulate, "run an MX-64 emulator on a pseudo-terminal (prints the tty "
                     "path; faults from stdin: object MM|none, overheat, overload, noreply on|off, corrupt "
                     "on|off, unplug, replug, clear)")  # fmt: skip
-    e.add_argument("--object-width", type=float, metavar="MM", help="object between the fingers, mm")
+    e.add_argument(
+        "--object-width", type=float, metavar="MM", help="object between the fingers, mm (default: none)"
+    )
     e.add_argument(
         "--protocol",
         type=float,
@@ -65,8 +74,12 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     )
     e.add_argument("--baud", type=int, default=57600, metavar="BPS", help="baud rate, bit/s (default 57600)")
     e.add_argument("--id", type=int, dest="dxl_id", default=1, help="Dynamixel id, 0-252 (default 1)")
-    e.add_argument("--link", type=Path, help="also make this symlink to the tty (stable path)")
-    e.add_argument("--config", type=Path, help="gripper YAML config the emulated mechanism follows")
+    e.add_argument("--link", type=Path, help="also make this symlink to the tty (stable path; default: none)")
+    e.add_argument(
+        "--config",
+        type=Path,
+        help="gripper YAML config the emulated mechanism follows (default: the built-in values)",
+    )
     e.add_argument("--exit-with-stdin", action="store_true", help="stop when stdin closes (the parent died)")
 
     c = add_command(gs, "calibrate", _calibrate,
@@ -101,8 +114,18 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
         add_robot_arg(a)
         a.add_argument("--timeout", type=float, default=10.0, help="command timeout, s (default 10)")
         if action == "grasp":
-            a.add_argument("--force", type=float, metavar="N", help="grasp force limit, newtons")
-            a.add_argument("--current", type=float, metavar="MA", help="grasp current limit, mA")
+            a.add_argument(
+                "--force",
+                type=float,
+                metavar="N",
+                help="grasp force limit, newtons (default: the config's grasp current)",
+            )
+            a.add_argument(
+                "--current",
+                type=float,
+                metavar="MA",
+                help="grasp current limit, mA (default: the config's grasp_current_ma)",
+            )
         if action in ("grasp", "move", "open", "close", "release"):
             a.add_argument("--speed", type=float, help="fraction of the max velocity, (0, 1] (default 1)")
         if action == "move":

@@ -11,6 +11,7 @@ from sofia_calibrator.fitting.diagnostics import error6
 from sofia_calibrator.fitting.noise import camera_sigma, isotropic_component
 from sofia_calibrator.fitting.simulate import (
     UNMODELLED_NOISE,
+    make_eye_to_hand,
     make_problem,
     unmodelled_eye_to_hand,
     unmodelled_problem,
@@ -133,3 +134,21 @@ def test_translation_coverage_and_false_alarms_under_noise_the_solver_does_not_a
     low2 = 0.87 if (setup, kind) == ("eye-to-hand", "scale") else 0.895
     assert 0.92 <= pooled2 <= 0.98 and all(low2 <= v <= 0.995 for v in in2.values()), in2
     assert flagged <= 0.02 * 4 * SETS_PER_N, flagged
+
+
+def test_eye_to_hand_coverage_with_half_the_cameras_reading_depth_4_percent_long() -> None:
+    """A fixed camera 0.6-0.9 m away, a target on the flange, 12 poses, 1 mm robot noise, every
+    other set's depth 4 % long (a scale the test often cannot see from so little depth range):
+    translation within 1-sigma 62-74 %, within 2-sigma 92-98 % (800 sets, 2400 axis-trials: Monte
+    Carlo 1-sigma about 1 and 0.5 points; measured 66-68 % and 93-95 % with seeds 36-38)."""
+    rng = np.random.default_rng(36)
+    in1, in2 = [], []
+    for k in range(800):
+        pr = make_eye_to_hand(12, rng, robot_noise_m=0.001, depth_scale=0.96 if k % 2 else 1.0)
+        cal = calibrate_eye_to_hand(pr.p_cam, pr.T_base_flange, leave_one_out=False, enforce_criterion=False)
+        e = np.abs(error6(cal.T_flange_cam, pr.T_base_cam)[:3])
+        sd = np.sqrt(np.diag(cal.covariance6))[:3]
+        in1.append(e <= sd)
+        in2.append(e <= 2 * sd)
+    assert 0.62 <= np.mean(in1) <= 0.74, np.mean(in1, axis=0)
+    assert 0.92 <= np.mean(in2) <= 0.98, np.mean(in2, axis=0)

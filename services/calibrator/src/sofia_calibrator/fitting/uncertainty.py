@@ -60,7 +60,7 @@ def noise_by_axis(sol: Solution, noise: NoiseModel, idx: np.ndarray) -> np.ndarr
             return None
         e, b = sol.errors[:, cols], base[:, cols]
         if noise.additive:
-            level = isotropic_component(e, b, dof)  # type: ignore[arg-type]
+            level = isotropic_component(e, b, dof)
             out[:, cols] = np.sqrt(level**2 + b**2)
         else:
             out[:, cols] = b * math.sqrt(float(np.sum((e / b) ** 2)) / dof)

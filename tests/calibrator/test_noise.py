@@ -129,7 +129,7 @@ def test_translation_coverage_and_false_alarms_under_noise_the_solver_does_not_a
         in1[n], in2[n] = float(np.mean(a1)), float(np.mean(a2))
     pooled1, pooled2 = np.mean(list(in1.values())), np.mean(list(in2.values()))
     assert 0.62 <= pooled1 <= 0.74 and all(0.58 <= v <= 0.78 for v in in1.values()), in1
-    # eye-to-hand with a 0.95 depth scale at n = 6: a quarter of the sets show no sign of the scale
+    # eye-to-hand with a 0.95 depth scale at n = 6: one set in six shows no sign of the scale
     # (likelihood ratio < 3), and those carry its 40 mm shift uncovered: 88-90 % within 2-sigma
     low2 = 0.87 if (setup, kind) == ("eye-to-hand", "scale") else 0.895
     assert 0.92 <= pooled2 <= 0.98 and all(low2 <= v <= 0.995 for v in in2.values()), in2

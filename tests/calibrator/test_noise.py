@@ -114,8 +114,8 @@ def test_translation_coverage_and_false_alarms_under_noise_the_solver_does_not_a
     """Student-t, correlated robot error, depth noise 3x the model, depth scale 0.95, at n = 6, 11,
     20, 50, eye-in-hand and eye-to-hand: over the four n, translation within 1-sigma 62-74 % and
     within 2-sigma 92-98 % (the targets themselves: with 4800 axis-trials the Monte Carlo 1-sigma
-    is about 0.7 and 0.4 points), a false outlier in <= 2 % of sets; each n within the targets
-    widened by three Monte Carlo sigmas of its 1200 axis-trials (4 and 2.5 points). Seeds:
+    is about 0.7 and 0.3 points), a false outlier in <= 2 % of sets; each n within the targets
+    widened by about three Monte Carlo sigmas of its 1200 axis-trials (4 and 2.5 points). Seeds:
     numpy ``default_rng([36, n, kind index, set-up index])``."""
     in1, in2, flagged = {}, {}, 0
     for n in (6, 11, 20, 50):

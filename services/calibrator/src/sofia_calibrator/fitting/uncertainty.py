@@ -2,7 +2,7 @@
 
 Two effects made the Jacobian's covariance (one noise level for every axis, the other models
 weighted by an information criterion) miss its coverage target under noise the solver does not
-assume (measured with ``bench/bench_calibrator_targets.py``, 2000 sets per cell):
+assume (measured with ``bench/bench_calibrator_targets.py``'s problems, 2000 sets per cell):
 
 - **Noise of another shape.** With the camera's depth noise 3x its model, one estimated level
   spreads the depth residuals over the lateral axes too: the translation 1-sigma covered 74-75 %
@@ -16,7 +16,7 @@ assume (measured with ``bench/bench_calibrator_targets.py``, 2000 sets per cell)
   criterion weights gave the scale too little weight when its evidence was moderate and too much
   when it was absent. :func:`model_weights` counts a correction as plausible once the likelihood
   ratio against the rigid model passes its 5 % critical value, and its distance to the chosen fit
-  1.5 times: when the test keeps the rigid model, the corrections it let through came out small.
+  1.5 times: when the test keeps the rigid model, the scale's estimate tends to have come out small.
 """
 
 from __future__ import annotations

@@ -19,7 +19,6 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy.special import fdtrc
-from scipy.stats import chi2
 from sofia_schemas.messages.calibration import CameraCorrection
 
 MODELS = ("rigid", "depth_scale", "ray_scale")
@@ -35,11 +34,6 @@ N_EXTRA = {"rigid": 0, "depth_scale": 1, "ray_scale": 1}
 # while 6-7-sample subsets of the lab set get their depth scale 2-3x as often as at 0.001
 # (held-out prediction RMS 4.1 / 3.0 mm instead of 4.4 / 3.8 mm; rigid alone: 4.9 / 4.7 mm).
 MODEL_ALPHA = 0.003
-# Penalty per unknown of the weights of the model-averaged covariance: the chi-square critical
-# value of the test, so that a correction at the edge of being chosen weighs as much as rigid. The
-# Akaike penalty (2) gave the unchosen scale about a quarter of the weight on rigid cameras and its
-# wide translation covariance over-covered (76-82 % within 1-sigma); this one: 62-74 %.
-WEIGHT_PENALTY = float(chi2.isf(MODEL_ALPHA, 1))
 MIN_SAMPLES_FOR_SCALE = 6  # below this the scale is not separable from the transform with any redundancy
 
 

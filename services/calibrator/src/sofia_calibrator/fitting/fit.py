@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 from functools import lru_cache
 
@@ -15,6 +14,7 @@ from . import correction as cc
 from . import diagnostics as dg
 from . import fit_kernels as fk
 from . import kernels, so3
+from . import uncertainty as uq
 from .noise import NoiseModel, rms_mm
 from .solver import Solution, refine, solve
 
@@ -101,7 +101,7 @@ class Selection:
     reason: str
     noise: NoiseModel
     other_models9: np.ndarray = field(default_factory=lambda: np.zeros((9, 9)))  # weighted, of the others
-    weight: float = 1.0  # Akaike weight of the chosen model
+    weight: float = 1.0  # weight of the chosen model (:func:`uncertainty.model_weights`)
     reference_errors: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))  # (m, 3) rigid fit, m
 
 
@@ -155,16 +155,13 @@ class Problem:
         sol = refine(p, T[:, :3, :3], T[:, :3, 3], sigma, ref.R @ so3.exp(dx[k, :3]), ref.t + dx[k, 3:6],
                      ref.p_base + dx[k, 6:9], self.loss, self.loss_scale, model=chosen.model, beta=chosen.beta)  # fmt: skip
         chosen.chi2, chosen.beta = sol.cost, sol.beta
-        # model-averaged covariance (Buckland): the other models' spread, weighted by an information
-        # criterion whose penalty per unknown is the model test's critical value (``cc.WEIGHT_PENALTY``)
-        crit = [c.aic + (cc.WEIGHT_PENALTY - 2.0) * c.n_params for c in cands]
-        w = [math.exp(-0.5 * (a - min(crit))) for a in crit]
-        w = [wb / sum(w) for wb in w]
+        # the plausible models' spread (see :mod:`sofia_calibrator.fitting.uncertainty`)
+        w = uq.model_weights([c.chi2 for c in cands], 3 * m)
         extra = np.zeros((9, 9))
-        for b, c in enumerate(cands):
-            if c is not chosen and w[b] > 1e-6:
+        for b in range(len(cands)):
+            if b != k and w[b] > 0.0:
                 d = dx[b] - dx[k]
-                extra += w[b] * (cov9[b] + d[:, None] * d)
+                extra += w[b] * (cov9[b] + uq.SELECTION_WIDENING * d[:, None] * d)
         return Selection(sol, cands, reason, noise, extra, w[k], ref.errors)
 
     def explain(self, idx: np.ndarray, sel: Selection) -> Fit:
@@ -178,7 +175,8 @@ class Problem:
         mapped_start = dg.map_to_base(self.T_base_flange, T0, self.p_cam)
         dof = 3 * len(idx) - 9 - len(sol.beta)
         scale2 = sol.cost / dof if dof > 0 else 1.0
-        cov = kernels.inverse(sol.JtJ) * scale2
+        by_axis = uq.parameter_covariance(sol, noise, idx) if dof > 0 else None
+        cov = kernels.inverse(sol.JtJ) * scale2 if by_axis is None else by_axis
         cov[:9, :9] = sel.weight * cov[:9, :9] + sel.other_models9
         cov *= t_inflation(dof)
         cov6 = dg.covariance6(sol.R, cov)

@@ -51,7 +51,7 @@ def sample_noise(p_cam: np.ndarray, rng: np.random.Generator, scale: float = 1.0
     return rng.standard_normal(p_cam.shape) * camera_sigma(p_cam) * scale
 
 
-def isotropic_component(errors: np.ndarray, camera: np.ndarray, dof: int, iterations: int = 30) -> float:
+def isotropic_component(errors: np.ndarray, camera: np.ndarray, dof: float, iterations: int = 30) -> float:
     """The isotropic noise s0 (metres) that, added to the camera's own noise, explains the residuals.
 
     errors: (n, 3) residuals, camera frame, metres; camera: (n, 3) the camera model's 1-sigma.

@@ -92,7 +92,7 @@ UNMODELLED_NOISE = ("student", "correlated", "depth3x", "scale")
 
 
 def unmodelled_problem(kind: str, n: int, rng: np.random.Generator) -> Problem:
-    """A problem whose noise the solver does not assume (coverage and false-alarm checks).
+    """An eye-in-hand problem whose noise the solver does not assume (coverage and false-alarm checks).
 
     kind: "student" (camera and 1.5 mm robot noise Student-t with 3 degrees of freedom, unit
     variance scaled), "correlated" (robot error 2 mm per axis, AR(1) 0.8 between consecutive
@@ -100,29 +100,44 @@ def unmodelled_problem(kind: str, n: int, rng: np.random.Generator) -> Problem:
     (depth reads 1 / 0.95 long, 1.5 mm robot noise). The robot error is added to the reported
     flange translations; ``p_cam`` is the measured blob, camera frame, metres.
     """
+    _check_kind(kind)
+    pr = make_problem(n, rng, noise_scale=0.0, depth_scale=0.95 if kind == "scale" else 1.0)
+    camera_errors, robot_errors = unmodelled_errors(kind, pr.p_cam, rng)
+    pr.T_base_flange[:, :3, 3] += robot_errors
+    pr.p_cam = pr.p_cam + camera_errors
+    return pr
+
+
+def _check_kind(kind: str) -> None:
     if kind not in UNMODELLED_NOISE:
         raise ValueError(f"kind must be one of {UNMODELLED_NOISE}, got {kind!r}")
-    pr = make_problem(n, rng, noise_scale=0.0, depth_scale=0.95 if kind == "scale" else 1.0)
-    camera = camera_sigma(pr.p_cam)
+
+
+def unmodelled_errors(
+    kind: str, p_cam: np.ndarray, rng: np.random.Generator
+) -> tuple[np.ndarray, np.ndarray]:
+    """The errors of :func:`unmodelled_problem`'s ``kind`` for (n, 3) noise-free camera-frame
+    points ``p_cam`` (metres): (n, 3) camera errors (camera frame) and (n, 3) robot translation
+    errors (base frame), metres."""
+    n = len(p_cam)
+    camera = camera_sigma(p_cam)
     if kind == "student":
-        e = rng.standard_t(3, pr.p_cam.shape) / np.sqrt(3.0) * camera
+        e = rng.standard_t(3, p_cam.shape) / np.sqrt(3.0) * camera
         robot = rng.standard_t(3, (n, 3)) / np.sqrt(3.0) * 0.0015
     elif kind == "correlated":
-        e = rng.standard_normal(pr.p_cam.shape) * camera
+        e = rng.standard_normal(p_cam.shape) * camera
         z = rng.standard_normal((n, 3)) * 0.002
         robot = np.empty_like(z)
         robot[0] = z[0]
         for i in range(1, n):  # AR(1): stationary 2 mm per axis
             robot[i] = 0.8 * robot[i - 1] + 0.6 * z[i]
     elif kind == "depth3x":
-        e = rng.standard_normal(pr.p_cam.shape) * camera * [1.0, 1.0, 3.0]
+        e = rng.standard_normal(p_cam.shape) * camera * [1.0, 1.0, 3.0]
         robot = rng.standard_normal((n, 3)) * 0.001
     else:
-        e = rng.standard_normal(pr.p_cam.shape) * camera
+        e = rng.standard_normal(p_cam.shape) * camera
         robot = rng.standard_normal((n, 3)) * 0.0015
-    pr.T_base_flange[:, :3, 3] += robot
-    pr.p_cam = pr.p_cam + e
-    return pr
+    return e, robot
 
 
 @dataclass
@@ -160,3 +175,15 @@ def make_eye_to_hand(
     T[:, :3, 3] += rng.standard_normal((n, 3)) * robot_noise_m
     seen = p_cam_true / [1.0, 1.0, depth_scale]
     return EyeToHandProblem(T_base_cam, p_flange, T, p_cam_true, seen + sample_noise(seen, rng, noise_scale))
+
+
+def unmodelled_eye_to_hand(kind: str, n: int, rng: np.random.Generator) -> EyeToHandProblem:
+    """An eye-to-hand problem (:func:`make_eye_to_hand`) with the errors of
+    :func:`unmodelled_problem`'s ``kind``: camera errors on ``p_cam``, robot errors on the reported
+    flange translations."""
+    _check_kind(kind)
+    pr = make_eye_to_hand(n, rng, noise_scale=0.0, depth_scale=0.95 if kind == "scale" else 1.0)
+    camera_errors, robot_errors = unmodelled_errors(kind, pr.p_cam, rng)
+    pr.T_base_flange[:, :3, 3] += robot_errors
+    pr.p_cam = pr.p_cam + camera_errors
+    return pr

@@ -32,7 +32,7 @@ from sofia_calibrator.fitting.simulate import (
     unmodelled_problem,
 )
 from sofia_calibrator.fitting.solver import linear_init
-from sofia_calibrator.targets import read_cloud, read_euler_poses, sphere_centres
+from sofia_calibrator.targets import find_sphere, read_cloud, read_euler_poses, sphere_centres
 from sofia_calibrator.targets.files import read_opencv_pose_pairs
 from sofia_calibrator.targets.poses import consistency, hand_eye_from_poses
 
@@ -159,6 +159,13 @@ def main() -> None:
         per_view = (clock() - t0) / 9
         Ts = read_euler_poses(sphere / "RobotPoses.dat")
         rms = float(np.sqrt(np.mean(calibrate(centres, Ts).residuals_mm ** 2)))
+        radius = {"radius per view": [find_sphere(c).p_cam for c in clouds],
+                  "radius given 48.4 mm": [find_sphere(c, 0.0484).p_cam for c in clouds]}  # fmt: skip
+        radius_rms = ", ".join(f"{k}: {np.sqrt(np.mean(calibrate(np.array(v), Ts).residuals_mm ** 2)):.3f} mm"
+                               for k, v in radius.items())  # fmt: skip
+        print(
+            f"| RegHEC sphere: fit RMS with one shared fitted radius {rms:.3f} mm; {radius_rms} | - | - | - | - | - | - |"
+        )
         for line in real_points(f"RegHEC: 9 real sphere views, eye-in-hand (RegHEC data/Sphere; fit RMS {rms:.2f} mm; "
                                 f"sphere fit {1e3 * per_view:.0f} ms/view, in the time)", centres, Ts, per_view * 8):  # fmt: skip
             print(line)

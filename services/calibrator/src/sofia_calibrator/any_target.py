@@ -51,7 +51,7 @@ def calibrate_target(
 
     T_base_flange: (n, 4, 4) flange poses. target "blob": p_cam (n, 3) camera frame, metres;
     "sphere": clouds_cam, n clouds (m_i, 3) camera frame, metres, the sphere of ``radius_m`` (None:
-    fitted) found in each; "poses": T_cam_target (n, 4, 4) measured target poses (``size_m``: the
+    one radius fitted to all the views) found in each; "poses": T_cam_target (n, 4, 4) measured target poses (``size_m``: the
     target's size, weighting a rotation in the first pass); "charuco": grey images (h, w) uint8, the
     camera matrix K (3, 3) and the ``board`` (:class:`BoardSpec`), each view's board pose by PnP
     on its ChArUco corners, then as "poses" (with ``clouds_cam``, organized (h, w, 3) clouds

@@ -25,7 +25,9 @@ def add_target_args(p: argparse.ArgumentParser) -> None:
                    "fixed, target on the flange (T_base_cam)")  # fmt: skip
     g.add_argument("--clouds", nargs="+", metavar="CLOUD", help="sphere: one PCD/PLY cloud per flange pose")
     g.add_argument("--cloud-unit", type=float, default=1.0, help="metres per cloud unit (default 1)")
-    g.add_argument("--radius", type=float, help="sphere radius, metres (default: fitted)")
+    g.add_argument(
+        "--radius", type=float, help="sphere radius, metres (default: one radius fitted to all the views)"
+    )
     g.add_argument("--euler-poses", metavar="FILE",
                    help="flange poses as 'a, b, c, x, y, z' lines (radians; see --euler-convention)")  # fmt: skip
     g.add_argument("--euler-convention", default="xyz", help="SciPy Euler sequence (default xyz)")

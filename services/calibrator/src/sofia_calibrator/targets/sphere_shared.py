@@ -43,9 +43,16 @@ def shared_spheres(
         try:
             segments.append(segment_sphere(cloud, None, inlier_m))
         except SphereNotFound as e:
-            raise SphereNotFound(
-                f"view {i + 1} of {len(clouds_cam)}: {str(e).removeprefix('no sphere found: ')}"
-            ) from e
+            reason = str(e).removeprefix("no sphere found: ")
+            raise SphereNotFound(f"view {i + 1} of {len(clouds_cam)}: {reason}") from e
+    return fit_shared(segments, method)
+
+
+def fit_shared(segments: list[tuple[np.ndarray, np.ndarray, float]], method: str = "joint") -> list[Sphere]:
+    """The spheres of segmented views, one radius shared: segments are n (inliers (k_i, 3), rough
+    centre (3,), rough radius) of :func:`~.sphere.segment_sphere`, camera optical frame, metres."""
+    if method not in METHODS:
+        raise InputMismatch(f"method must be one of {list(METHODS)}, got {method!r}")
     singles = [refine_sphere(pts, c, r, True) for pts, c, r in segments]
     radius = float(np.median([s.radius_m for s in singles]))  # robust to a view whose fit ran off
     fixed = [refine_sphere(pts, one.p_cam if abs(one.radius_m - radius) < 0.2 * radius else c, radius, False)

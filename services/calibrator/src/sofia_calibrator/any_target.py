@@ -17,7 +17,8 @@ from .targets.apriltag import TagSpec, tag_poses
 from .targets.board_points import board_points_fit, corner_points
 from .targets.charuco import BoardSpec, board_poses
 from .targets.poses import DEFAULT_SIZE_M, PoseFit, fixed_target, hand_eye_from_poses, residuals
-from .targets.sphere import DEFAULT_INLIER_M, sphere_centres
+from .targets.sphere import DEFAULT_INLIER_M
+from .targets.sphere_shared import sphere_centres
 
 TARGETS = ("blob", "sphere", "poses", "charuco", "apriltag")
 PLANNED: tuple[str, ...] = ()  # targets named but not built yet

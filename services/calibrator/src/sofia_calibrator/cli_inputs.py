@@ -18,7 +18,7 @@ def add_target_args(p: argparse.ArgumentParser) -> None:
     """--target / --setup and the inputs of the sphere and pose targets."""
     g = p.add_argument_group("target and set-up")
     g.add_argument("--target", default="blob", choices=("blob", "sphere", "poses", "charuco", "apriltag"),
-                   help="what the camera sees: blob (default), sphere (--clouds), poses (--pose-pairs), "
+                   help="what the camera sees: blob (default), sphere (--clouds, or a coloured ball in --mcap's clouds), poses (--pose-pairs), "
                    "charuco (--images, --camera-matrix, --board), apriltag (--images, --camera-matrix, --tag-size)")  # fmt: skip
     g.add_argument("--setup", default="eye-in-hand", choices=("eye-in-hand", "eye-to-hand"),
                    help="eye-in-hand: camera on the flange (T_flange_cam, default); eye-to-hand: camera "
@@ -81,6 +81,17 @@ def run_target(args: argparse.Namespace) -> object:
         return calibrate_target("poses", args.setup, T_base_flange=T, T_cam_target=T_cam_target, **common)
     if args.target in ("charuco", "apriltag"):
         return calibrate_target(args.target, args.setup, **image_inputs(args), **common)
+    options: dict[str, Any] = {"sigma": args.noise, "loss": args.loss, "exclude_outliers": not args.keep_outliers,
+               "correction": args.correction, **common}  # fmt: skip
+    if args.target == "sphere" and args.mcap:  # a coloured ball in the recording's camera clouds
+        from .inputs.mcap import read_mcap
+
+        m = read_mcap(args.mcap, from_clouds=True, target="ball", radius_m=args.radius)
+        for r in m.rejected:
+            print(f"skipped: {r}", file=sys.stderr)
+        if m.radius_m is not None:
+            print(f"ball radius {1e3 * m.radius_m:.2f} mm, fitted to {len(m.p_cam)} views", file=sys.stderr)
+        return calibrate_target("blob", args.setup, T_base_flange=m.T_base_flange, p_cam=m.p_cam, **options)
     if args.euler_poses:
         from .targets.files import read_euler_poses
 
@@ -91,13 +102,13 @@ def run_target(args: argparse.Namespace) -> object:
         T = read_tfs(args.tfs)
     else:
         p_cam, T = load_samples(args)
-    options: dict[str, Any] = {"sigma": args.noise, "loss": args.loss, "exclude_outliers": not args.keep_outliers,
-               "correction": args.correction, **common}  # fmt: skip
     if args.target == "sphere":
         from .targets.files import read_cloud
 
         if not args.clouds:
-            raise InputMismatch("--target sphere needs --clouds, one cloud file per flange pose")
+            raise InputMismatch(
+                "--target sphere needs --clouds (one cloud file per flange pose) or --mcap FILE"
+            )
         if len(args.clouds) != len(T):
             raise InputMismatch(f"{len(args.clouds)} clouds but {len(T)} flange poses")
         clouds = [read_cloud(c) * args.cloud_unit for c in args.clouds]

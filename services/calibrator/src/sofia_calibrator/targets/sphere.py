@@ -138,20 +138,3 @@ def refine_sphere(points: np.ndarray, centre: np.ndarray, radius_m: float, fit_r
         sigma_cam=np.sqrt(np.maximum(cov.diagonal()[:3], 0.0)), covariance=cov[:3, :3],
         n_inliers=len(points), rms_m=float(np.sqrt(np.mean(r**2))),
     )  # fmt: skip
-
-
-def sphere_centres(
-    clouds_cam: list[np.ndarray], radius_m: float | None = None, inlier_m: float = DEFAULT_INLIER_M
-) -> tuple[np.ndarray, np.ndarray]:
-    """The calibration points of n views of a sphere: (p_cam (n, 3), sigma_cam (n, 3)), camera
-    optical frame, metres; each view's cloud (m_i, 3) or (h, w, 3), metres. radius_m: the known
-    radius, or None for one radius fitted to all the views (:func:`~.sphere_shared.shared_spheres`).
-    ``p_cam`` goes where the blob positions go (:func:`sofia_calibrator.calibrate`, with
-    ``sigma=sigma_cam`` to weight the views by their fit's uncertainty)."""
-    if radius_m is None:
-        from .sphere_shared import shared_spheres
-
-        spheres = shared_spheres(clouds_cam, inlier_m)
-    else:
-        spheres = [find_sphere(c, radius_m, inlier_m) for c in clouds_cam]
-    return np.array([s.p_cam for s in spheres]), np.array([s.sigma_cam for s in spheres])

@@ -21,7 +21,7 @@ from scipy.optimize import least_squares
 from scipy.sparse import csr_matrix
 
 from ..errors import InputMismatch
-from .sphere import DEFAULT_INLIER_M, Sphere, SphereNotFound, refine_sphere, segment_sphere
+from .sphere import DEFAULT_INLIER_M, Sphere, SphereNotFound, find_sphere, refine_sphere, segment_sphere
 
 METHODS = ("joint", "median")
 MAX_POINTS_PER_VIEW = 3000  # the joint fit takes a random subset of each view's inliers beyond this
@@ -105,3 +105,18 @@ def _joint(segments: list[tuple[np.ndarray, np.ndarray, float]], starts: list[Sp
             covariance=cov[b, b], n_inliers=len(segments[i][0]), rms_m=float(np.sqrt(np.mean(res**2))),
         ))  # fmt: skip
     return out
+
+
+def sphere_centres(
+    clouds_cam: list[np.ndarray], radius_m: float | None = None, inlier_m: float = DEFAULT_INLIER_M
+) -> tuple[np.ndarray, np.ndarray]:
+    """The calibration points of n views of a sphere: (p_cam (n, 3), sigma_cam (n, 3)), camera
+    optical frame, metres; each view's cloud (m_i, 3) or (h, w, 3), metres. radius_m: the known
+    radius, or None for one radius fitted to all the views (:func:`shared_spheres`).
+    ``p_cam`` goes where the blob positions go (:func:`sofia_calibrator.calibrate`, with
+    ``sigma=sigma_cam`` to weight the views by their fit's uncertainty)."""
+    if radius_m is None:
+        spheres = shared_spheres(clouds_cam, inlier_m)
+    else:
+        spheres = [find_sphere(c, radius_m, inlier_m) for c in clouds_cam]
+    return np.array([s.p_cam for s in spheres]), np.array([s.sigma_cam for s in spheres])

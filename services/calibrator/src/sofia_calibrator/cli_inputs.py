@@ -39,6 +39,10 @@ def add_target_args(p: argparse.ArgumentParser) -> None:
     g.add_argument(
         "--images", nargs="+", metavar="IMAGE", help="charuco: one rectified image per flange pose"
     )
+    g.add_argument("--depth", nargs="+", metavar="DEPTH",
+                   help="charuco: one depth image per image (16-bit PNG, registered to it): the corners "
+                   "with depth refine the fit")  # fmt: skip
+    g.add_argument("--depth-unit", type=float, default=1e-3, help="metres per --depth unit (default mm)")
     g.add_argument("--camera-matrix", metavar="'fx fy cx cy'|FILE",
                    help="charuco: the images' intrinsics (pixels), or a YAML/JSON file with K or fx fy cx cy")  # fmt: skip
     g.add_argument("--board", nargs=4, type=float, metavar=("COLS", "ROWS", "SQUARE", "MARKER"),
@@ -140,11 +144,21 @@ def image_inputs(args: argparse.Namespace) -> dict[str, Any]:
         )
     if len(args.images) != len(T):
         raise InputMismatch(f"{len(args.images)} images but {len(T)} flange poses")
-    inputs = {
+    inputs: dict[str, Any] = {
         "T_base_flange": T,
         "images": read_grey_images(args.images),
         "K": read_camera_matrix(args.camera_matrix),
     }
+    if args.depth:
+        from .targets.files import read_depth_clouds
+
+        if args.target != "charuco":
+            raise InputMismatch(
+                f"--depth is for --target charuco (its corners with depth), not {args.target}"
+            )
+        if len(args.depth) != len(args.images):
+            raise InputMismatch(f"{len(args.depth)} depth images but {len(args.images)} images")
+        inputs["clouds_cam"] = read_depth_clouds(args.depth, inputs["K"], args.depth_unit)
     if args.target == "apriltag":
         return {**inputs, "tag": TagSpec(args.tag_family, args.tag_id, args.tag_size)}
     import cv2

@@ -199,7 +199,7 @@ def main() -> None:
             print(line)
     else:
         print("| RegHEC sphere set | not present (--reghec DIR) | - | - | - | - | - |")
-    print(synthetic_radius(max(2, args.trials // 10), rng))
+    print(synthetic_radius(max(2, args.trials // 8), np.random.default_rng(args.seed + 5)))
     pairs = args.camodocal / "example" / "TransformPairsInput.yml" if args.camodocal else None
     if pairs and pairs.is_file():
         T1, T2 = read_opencv_pose_pairs(pairs)

@@ -11,8 +11,8 @@ same ball: each view is segmented on its own (RANSAC, :func:`~.sphere.segment_sp
   joint fit's start).
 
 The default is the joint fit. On synthetic views of a 25 mm ball at 0.45-0.9 m with D435 depth
-noise (12 sets of 10 views) the centres are off by 0.95 mm RMS (joint), 1.24 mm (median) and
-1.50 mm (a radius per view; 0.19 mm with the radius given); on RegHEC's real sphere set all agree
+noise (12 sets of 10 views) the centres are off by 0.89 mm RMS (joint), 1.26 mm (median) and
+1.53 mm (a radius per view; 0.20 mm with the radius given); on RegHEC's real sphere set all agree
 (1.05 mm fit RMS). ``bench/bench_calibrator_targets.py`` prints both comparisons.
 """
 

@@ -47,11 +47,13 @@ def test_sofia_calibrate_auto_finds_a_sideways_camera(sofia_proc: Callable[..., 
 
 @pytest.mark.slow
 @pytest.mark.timeout(900)
+@pytest.mark.parametrize("radius", [["--ball-radius", "0.025"], []], ids=["radius-given", "radius-fitted"])
 def test_sofia_calibrate_auto_eye_to_hand_finds_the_fixed_camera(
-    sofia_proc: Callable[..., Proc], robot_id: str, tmp_path: Path
+    sofia_proc: Callable[..., Proc], robot_id: str, tmp_path: Path, radius: list[str]
 ) -> None:
     """A fixed simulated camera (mount and ball in the shared world file), a ball on the flange:
-    the arm finds the camera, plans views of the ball, the calibrator solves T_base_cam live."""
+    the arm finds the camera, plans views of the ball, the calibrator solves T_base_cam live
+    (the ball's radius given, or one radius fitted to all the views)."""
     world = tmp_path / "world.json"
     ball = ["--sim-ball", "0.015", "-0.01", "0.11", "0.025"]
     truth = sim_truth("--sim-scene", "eye-to-hand", *ball)
@@ -62,7 +64,7 @@ def test_sofia_calibrate_auto_eye_to_hand_finds_the_fixed_camera(
     sofia_proc("calibrator", "serve", "--state-dir", str(tmp_path / "calibrator"))
     arm.wait_for_log("connected to the robot", 120)
     assert read_world(world) is not None and read_world(world).flange_ball is not None  # type: ignore[union-attr]
-    out = subprocess.run([SOFIA, "calibrate", "auto", "--setup", "eye-to-hand", "--ball-radius", "0.025",
+    out = subprocess.run([SOFIA, "calibrate", "auto", "--setup", "eye-to-hand", *radius,
                           "--speed", "1.0", "--json"], capture_output=True, text=True, timeout=600,
                          env={"SOFIA_ROBOT": robot_id, "PATH": "/usr/bin:/bin"})  # fmt: skip
     res = json.loads(out.stdout.strip().splitlines()[-1])

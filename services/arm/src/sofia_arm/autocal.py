@@ -6,7 +6,9 @@ two axes gives the camera's rotation on the flange (:func:`sofia_arm.plan.rotati
 (2) find the blob (given, or seen on the way); (3) loop: rank candidate views of the blob by the
 covariance they leave (:func:`sofia_arm.plan.rank_candidates`), go to the best reachable one, wait
 until still, take the blob from the next camera frame with the flange pose of that instant, add the
-sample to the calibrator and re-solve; the estimate steers the next views.
+sample to the calibrator and re-solve; the estimate steers the next views. A coloured ball on the
+table can stand in for the blob (:class:`BallAutocal`); eye-to-hand, a ball on the flange
+(:class:`FixedAutocal`).
 """
 
 from __future__ import annotations

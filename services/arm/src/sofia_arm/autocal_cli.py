@@ -19,7 +19,7 @@ def register_auto(calibrate_parser: argparse.ArgumentParser) -> None:
     """Add ``auto`` under ``sofia calibrate``."""
     sub = calibrate_parser.add_subparsers(dest="calibrate_mode", metavar="auto", required=False)
     a = sub.add_parser(
-        "auto", help="autonomous calibration: the arm service shows the blob to the camera",
+        "auto", help="autonomous calibration: the arm service shows the blob (or a ball) to the camera",
         description="The arm service plans views of the blob, visits them, feeds the calibrator and stops "
         "when the translation 1-sigma is below the target or the pose budget is spent.",
     )  # fmt: skip

@@ -108,3 +108,33 @@ def test_corners_with_depth_beat_the_board_poses_alone() -> None:
     rms = [1e3 * float(np.sqrt(np.mean(np.square(e)))) for e in (poses, points)]
     assert rms[1] < 0.8 * rms[0] and rms[1] < 1.0, rms  # 8 views at 0.4-0.6 m
     assert 0.02 < np.mean(sigma) < 1.0, sigma  # a 1-sigma of the corners' scale, not of the poses'
+
+
+def test_the_command_takes_the_corners_depth_from_depth_images(tmp_path: Path) -> None:
+    """``--depth``: one 16-bit depth image per view (here 0.1 mm units), back-projected through the
+    camera matrix; the result is the Python call's on the same clouds, nearer the truth than the
+    board poses alone."""
+    import cv2
+    from sofia_calibrator.targets.files import read_depth_clouds
+
+    X, A, B, images = _views(8, 60)
+    names, poses = write_views(tmp_path, images, A)
+    depth_names = []
+    for i, cloud in enumerate(_clouds(B, np.random.default_rng(6))):
+        depth_names.append(str(tmp_path / f"depth{i}.png"))
+        cv2.imwrite(depth_names[-1], np.nan_to_num(np.round(cloud[..., 2] / 1e-4)).astype(np.uint16))
+    base = [SOFIA, "calibrate", "--target", "charuco", "--euler-poses", str(poses), "--camera-matrix",
+            "600 600 320 240", "--images", *names]  # fmt: skip
+    out = subprocess.run([*base, "--depth", *depth_names, "--depth-unit", "0.0001", "--json"],
+                         capture_output=True, text=True, timeout=120)  # fmt: skip
+    assert out.returncode == 0, out.stderr
+    msg = json.loads(out.stdout)
+    assert "then the corners with depth" in msg["correction_reason"]
+    clouds = read_depth_clouds(depth_names, K, 1e-4)
+    cal = calibrate_target("charuco", T_base_flange=A, images=images, K=K, clouds_cam=clouds)
+    np.testing.assert_allclose(np.array(msg["matrix"]), cal.T_flange_cam, atol=1e-5)
+    by_pose = calibrate_target("charuco", T_base_flange=A, images=images, K=K)
+    err_depth = np.linalg.norm(error6(cal.T_flange_cam, X)[:3])
+    assert err_depth < 1e-3 and err_depth < np.linalg.norm(error6(by_pose.T_flange_cam, X)[:3])
+    bad = subprocess.run([*base, "--depth", *depth_names[:2]], capture_output=True, text=True, timeout=120)
+    assert bad.returncode != 0 and "2 depth images but 8 images" in bad.stderr

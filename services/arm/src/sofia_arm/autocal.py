@@ -6,7 +6,9 @@ two axes gives the camera's rotation on the flange (:func:`sofia_arm.plan.rotati
 (2) find the blob (given, or seen on the way); (3) loop: rank candidate views of the blob by the
 covariance they leave (:func:`sofia_arm.plan.rank_candidates`), go to the best reachable one, wait
 until still, take the blob from the next camera frame with the flange pose of that instant, add the
-sample to the calibrator and re-solve; the estimate steers the next views.
+sample to the calibrator and re-solve; the estimate steers the next views. A coloured ball on the
+table can stand in for the blob (:class:`BallAutocal`); eye-to-hand, a ball on the flange
+(:class:`FixedAutocal`).
 """
 
 from __future__ import annotations
@@ -16,9 +18,7 @@ import time
 
 import numpy as np
 import zenoh
-from sofia_calibrator.blob import find_blob
 from sofia_calibrator.errors import CalibrationError
-from sofia_calibrator.targets.ball import find_ball
 from sofia_runtime.client import QueryError
 from sofia_schemas.keys import Keys
 from sofia_schemas.messages import ArmCommand, ArmResult, CalibrationResult
@@ -27,14 +27,22 @@ from sofia_schemas.transforms import apply, invert
 
 from . import autocal_fixed as fixed
 from . import plan
-from .autocal_io import BusCalibrator, BusEye, CalibratorLink, Eye, Frame, Progress
-from .autocal_look import AutocalError, Looker
+from .autocal_io import BusCalibrator, BusEye, CalibratorLink, Eye, Progress
+from .autocal_look import AutocalError, BallLooker, Looker
 from .autocal_options import AutocalOptions, Outcome, to_arm_result
 from .motion import ArmMotion
 from .poses import Reach, in_image, solve_ik, views_of
 
 log = logging.getLogger("sofia.arm.autocal")
-__all__ = ["Autocal", "AutocalError", "AutocalOptions", "FixedAutocal", "Outcome", "run_autocal"]
+__all__ = [
+    "Autocal",
+    "AutocalError",
+    "AutocalOptions",
+    "BallAutocal",
+    "FixedAutocal",
+    "Outcome",
+    "run_autocal",
+]
 MAX_OFFSET_M = 0.25  # a camera on the flange is closer than this to the flange origin
 TRUST_SIGMA_MM = 5.0  # the calibrator's estimate steers the views once the model predicts this 1-sigma
 # where the blob may be put in the image (right, down; degrees): off-centre views observe the
@@ -44,9 +52,7 @@ D435_K = np.array([[615.0, 0.0, 319.5], [0.0, 615.0, 239.5], [0.0, 0.0, 1.0]])
 
 
 class Autocal(Looker):
-    """One autonomous calibration run (:meth:`run`)."""
-
-    TARGET = "blob"  # what the views show, as the progress lines name it
+    """One autonomous calibration run (:meth:`run`): eye-in-hand, the blob on the table."""
 
     def __init__(self, arm: ArmMotion, eye: Eye, cal: CalibratorLink, opts: AutocalOptions,
                  progress: Progress, reach: Reach | None = None, K: np.ndarray = D435_K,
@@ -99,15 +105,6 @@ class Autocal(Looker):
             if ik.ok:
                 return np.asarray(cands[i])
         return None
-
-    def observe(self, frame: Frame) -> tuple[np.ndarray, float, str]:
-        """(p_cam (3,) camera frame m, confidence, description) of the target in a frame; raises
-        CalibrationError when it is not seen."""
-        assert frame.rgb is not None
-        blob = find_blob(frame.points_cam, frame.rgb)
-        u, v = blob.centroid_px
-        return blob.p_cam, blob.confidence, (f"blob at ({u:.0f}, {v:.0f}) px, {blob.p_cam[2]:.3f} m, "
-                                             f"confidence {blob.confidence:.2f}")  # fmt: skip
 
     def rough_update(self) -> None:
         """Before the calibrator's estimate is trusted: the camera's rotation is known (table), so
@@ -221,23 +218,36 @@ class Autocal(Looker):
         return Outcome(self.result, len(self.samples_T), visits, self.samples_T, stop, sigma)
 
 
-class FixedAutocal(Autocal):
+class BallAutocal(BallLooker, Autocal):
+    """Eye-in-hand with a coloured ball lying on the table in place of the blob: the same run, the
+    ball's centre (a sphere fit, :mod:`sofia_calibrator.targets.ball`) as each view's point. With
+    the radius unknown, every sample's centre is refitted with one radius shared by all the views
+    each time one is added, and the calibrator's samples replaced by them."""
+
+    def take(self, step: str) -> tuple[bool, str]:
+        ok, text = super().take(step)
+        if not ok or self.last_seen is None:
+            return ok, text
+        stamp_ns, ball = self.last_seen
+        self.segments.append(ball.segment)
+        self.seen.append((stamp_ns, ball.confidence))
+        radius = self.refit(self.samples_p)
+        if radius is None:
+            return ok, text
+        self.cal.reset()
+        for (stamp, conf), p_cam, T_bf in zip(self.seen, self.samples_p, self.samples_T, strict=True):
+            self.cal.add(stamp, p_cam, T_bf, conf)
+        return ok, f"{text}; radius {1e3 * radius:.2f} mm shared by {len(self.seen)} views"
+
+
+class FixedAutocal(BallAutocal):
     """Eye-to-hand: a fixed camera, a ball on the flange (:mod:`sofia_arm.autocal_fixed`).
     ``T_fc`` holds T_base_cam and ``p_base`` the ball's centre in the flange frame."""
 
-    TARGET = "ball"
     R_start: np.ndarray | None = None  # (3, 3) the flange's orientation at the start (base frame)
 
     def model_poses(self, T_base_flange: np.ndarray) -> np.ndarray:
         return fixed.inverse_poses(T_base_flange)
-
-    def observe(self, frame: Frame) -> tuple[np.ndarray, float, str]:
-        assert frame.rgb is not None
-        ball = find_ball(frame.points_cam, frame.rgb, self.opts.ball_radius)
-        u, v = ball.centroid_px
-        s = ball.sphere
-        return ball.p_cam, ball.confidence, (f"ball at ({u:.0f}, {v:.0f}) px, {s.p_cam[2]:.3f} m, radius "
-                                             f"{1e3 * s.radius_m:.1f} mm, confidence {ball.confidence:.2f}")  # fmt: skip
 
     def rough_update(self) -> None:
         """Nothing: the start's estimate steers until the calibrator's is trusted."""
@@ -284,7 +294,10 @@ def run_autocal(cmd: ArmCommand, arm: ArmMotion, session: zenoh.Session, keys: K
         safety = getattr(arm, "safety", None)  # the service's tool and surface rule, for every view
         reach = None if safety is None else safety.planner_reach(Reach())
         cal = BusCalibrator(session, keys, setup=opts.setup)
-        run = (FixedAutocal if opts.setup == "eye-to-hand" else Autocal)(arm, eye, cal, opts, progress, reach)
+        kind = (
+            FixedAutocal if opts.setup == "eye-to-hand" else BallAutocal if opts.target == "ball" else Autocal
+        )
+        run = kind(arm, eye, cal, opts, progress, reach)
         try:
             outcome = run.run()
         except AutocalError as e:

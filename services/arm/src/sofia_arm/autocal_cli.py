@@ -19,20 +19,22 @@ def register_auto(calibrate_parser: argparse.ArgumentParser) -> None:
     """Add ``auto`` under ``sofia calibrate``."""
     sub = calibrate_parser.add_subparsers(dest="calibrate_mode", metavar="auto", required=False)
     a = sub.add_parser(
-        "auto", help="autonomous calibration: the arm service shows the blob to the camera",
+        "auto", help="autonomous calibration: the arm service shows the blob (or a ball) to the camera",
         description="The arm service plans views of the blob, visits them, feeds the calibrator and stops "
         "when the translation 1-sigma is below the target or the pose budget is spent.",
     )  # fmt: skip
     a.add_argument("--setup", choices=("eye-in-hand", "eye-to-hand"), default="eye-in-hand",
                    help="eye-in-hand: the camera on the flange, the blob on the table; eye-to-hand: a fixed "
                    "camera, a ball on the flange (default eye-in-hand)")  # fmt: skip
+    a.add_argument("--target", choices=("blob", "ball"),
+                   help="eye-in-hand: the blob (default) or a coloured ball on the table; eye-to-hand: a ball")  # fmt: skip
     a.add_argument("--blob", nargs=3, type=float, metavar=("X", "Y", "Z"),
-                   help="rough target position, metres: the blob in the base frame, or (eye-to-hand) the "
-                   "ball in the flange frame (default: found from the start pose)")  # fmt: skip
+                   help="rough target position, metres: the blob or ball in the base frame, or (eye-to-hand) "
+                   "the ball in the flange frame (default: found from the start pose)")  # fmt: skip
     a.add_argument("--guess", nargs=7, type=float, metavar=("X", "Y", "Z", "QX", "QY", "QZ", "QW"),
                    help="rough T_flange_cam, or (eye-to-hand) T_base_cam (default: found from the start pose)")  # fmt: skip
     a.add_argument("--ball-radius", type=float, metavar="M",
-                   help="eye-to-hand: the ball's radius, metres (default: fitted in each view)")  # fmt: skip
+                   help="the ball's radius, metres (default: fitted in each view)")  # fmt: skip
     a.add_argument("--target-mm", type=float, default=1.0, help="stop at this translation 1-sigma (mm)")
     a.add_argument("--max-poses", type=int, default=20, help="pose budget: most poses visited (default 20)")
     a.add_argument("--min-poses", type=int, default=6, help="poses taken before stopping early (default 6)")
@@ -47,6 +49,8 @@ def register_auto(calibrate_parser: argparse.ArgumentParser) -> None:
 def options(args: argparse.Namespace) -> dict[str, Any]:
     opts: dict[str, Any] = {"target_sigma_mm": args.target_mm, "max_poses": args.max_poses,
                             "min_poses": args.min_poses, "setup": args.setup}  # fmt: skip
+    if args.target is not None:
+        opts["target"] = args.target
     if args.ball_radius is not None:
         opts["ball_radius"] = args.ball_radius
     if args.blob:

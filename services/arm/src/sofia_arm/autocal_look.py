@@ -5,11 +5,14 @@ at rest, the camera's rotation from the table seen from flange tilts, and the bl
 from __future__ import annotations
 
 import logging
+from typing import Any
 
 import numpy as np
 from scipy.spatial.transform import Rotation
 from sofia_calibrator.blob import find_blob
 from sofia_calibrator.errors import CalibrationError
+from sofia_calibrator.targets.ball import Ball, find_ball
+from sofia_calibrator.targets.sphere_shared import fit_shared
 from sofia_schemas.transforms import apply, invert, make_transform
 
 from . import plan
@@ -39,7 +42,10 @@ class AutocalError(ArmError):
 
 
 class Looker:
-    """The arm and the camera of a calibration run, and what is known of the camera and the blob."""
+    """The arm and the camera of a calibration run, and what is known of the camera and the target
+    (the blob on the table; :class:`BallLooker`: a ball)."""
+
+    TARGET = "blob"  # what the views show, as the progress lines name it
 
     def __init__(
         self, arm: ArmMotion, eye: Eye, opts: AutocalOptions, progress: Progress, reach: Reach
@@ -93,10 +99,19 @@ class Looker:
         if plane is not None:
             self.table_z.append(T_bf[2, 3] - plane[1])  # camera ~ flange height: a rough table height
         try:
-            self.sightings.append((T_bf, find_blob(frame.points_cam, frame.rgb).p_cam))
+            self.sightings.append((T_bf, self.observe(frame)[0]))
         except CalibrationError:
             pass
         return T_bf, frame, plane
+
+    def observe(self, frame: Frame) -> tuple[np.ndarray, float, str]:
+        """(p_cam (3,) camera frame m, confidence, description) of the target in a frame; raises
+        CalibrationError when it is not seen."""
+        assert frame.rgb is not None
+        blob = find_blob(frame.points_cam, frame.rgb)
+        u, v = blob.centroid_px
+        return blob.p_cam, blob.confidence, (f"blob at ({u:.0f}, {v:.0f}) px, {blob.p_cam[2]:.3f} m, "
+                                             f"confidence {blob.confidence:.2f}")  # fmt: skip
 
     # --- 1. the camera's rotation from the table ----------------------------------------------
     def orient(self) -> None:
@@ -125,11 +140,11 @@ class Looker:
                           f"from the table in {len(poses)} views")  # fmt: skip
 
     def find(self) -> None:
-        """The blob: seen while orienting, else searched for looking down at the table around."""
+        """The target: seen while orienting, else searched for looking down at the table around."""
         assert self.T_fc is not None
         x0, y0 = self.arm.T_base_flange()[:2, 3]
         if not self.sightings and not self.table_z:
-            self._see("find blob")
+            self._see(f"find {self.TARGET}")
         for dx, dy in SEARCH_XY_M:
             if self.sightings or not self.table_z:
                 break
@@ -140,7 +155,43 @@ class Looker:
                     self._see("search")
                     break
         if not self.sightings:
-            raise AutocalError("find blob", "the blob was not seen around the start pose: give its position")
+            raise AutocalError(f"find {self.TARGET}", f"the {self.TARGET} was not seen around the start pose: "
+                               "give its position")  # fmt: skip
         T_bf, p_cam = self.sightings[-1]
         self.p_base = apply(T_bf @ self.T_fc, p_cam)
-        self.progress.add("find blob", "done", f"blob near {np.round(self.p_base, 3).tolist()} m (base)")
+        self.progress.add(f"find {self.TARGET}", "done",
+                          f"{self.TARGET} near {np.round(self.p_base, 3).tolist()} m (base)")  # fmt: skip
+
+
+class BallLooker(Looker):
+    """A coloured ball is the target (:func:`sofia_calibrator.targets.ball.find_ball`): on the
+    table eye-in-hand, on the flange eye-to-hand. Its radius is ``opts.ball_radius``, or one
+    radius fitted to all the samples' views (:meth:`refit`): a radius fitted in each view alone
+    reads small far from the camera and drags that view's centre along the ray."""
+
+    TARGET = "ball"
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        self.last_seen: tuple[int, Ball] | None = None  # (stamp_ns, ball) of the last frame observed
+        self.segments: list[tuple[np.ndarray, np.ndarray, float]] = []  # the samples' views of the ball
+        self.seen: list[tuple[int, float]] = []  # (stamp_ns, confidence) of each sample
+
+    def observe(self, frame: Frame) -> tuple[np.ndarray, float, str]:
+        assert frame.rgb is not None
+        ball = find_ball(frame.points_cam, frame.rgb, self.opts.ball_radius)
+        self.last_seen = (frame.stamp_ns, ball)
+        u, v = ball.centroid_px
+        s = ball.sphere
+        return ball.p_cam, ball.confidence, (f"ball at ({u:.0f}, {v:.0f}) px, {s.p_cam[2]:.3f} m, radius "
+                                             f"{1e3 * s.radius_m:.1f} mm, confidence {ball.confidence:.2f}")  # fmt: skip
+
+    def refit(self, samples_p: list[np.ndarray]) -> float | None:
+        """With the radius unknown, refit the centres of the samples' views (their segments, in
+        the order of samples_p) with one radius shared by all of them, writing them into
+        samples_p; the shared radius (m), or None while there are fewer than 2 views."""
+        if self.opts.ball_radius is not None or len(self.segments) < 2:
+            return None
+        spheres = fit_shared(self.segments)
+        samples_p[:] = [s.p_cam for s in spheres]
+        return spheres[0].radius_m

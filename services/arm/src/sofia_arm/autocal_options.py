@@ -13,6 +13,7 @@ from .autocal_io import Progress
 from .motion import ArmMotion
 
 SETUPS = ("eye-in-hand", "eye-to-hand")
+TARGETS = ("blob", "ball")  # eye-in-hand: the blob or a ball on the table; eye-to-hand: a ball
 EYE_TO_HAND_DISTANCE_M = (0.45, 0.9)  # the ball's distance from a fixed camera (default)
 
 
@@ -40,11 +41,13 @@ class AutocalOptions:
     eye-to-hand, m); guess: T_flange_cam (eye-to-hand: T_base_cam) as x y z qx qy qz qw; without
     either, both are found from the start pose (eye-in-hand: the table seen from flange tilts, the
     blob seen in those frames; eye-to-hand: the ball seen while the flange moves and turns a
-    little). ball_radius: the ball's radius (m; None: fitted). distance_m: of the target from the
-    camera (eye-to-hand default 0.45-0.9).
+    little). target: blob (default eye-in-hand) or ball (a coloured ball on the table eye-in-hand,
+    on the flange eye-to-hand, where it is the only one). ball_radius: the ball's radius (m; None:
+    fitted). distance_m: of the target from the camera (eye-to-hand default 0.45-0.9).
     """
 
     setup: str = "eye-in-hand"
+    target: str = "blob"
     ball_radius: float | None = None
 
     blob: tuple[float, float, float] | None = None
@@ -71,6 +74,12 @@ class AutocalOptions:
             opts.speed = speed
         if opts.setup not in SETUPS:
             raise ValueError(f"setup must be one of {list(SETUPS)}, got {opts.setup!r}")
+        if opts.target not in TARGETS:
+            raise ValueError(f"target must be one of {list(TARGETS)}, got {opts.target!r}")
+        if opts.setup == "eye-to-hand" and "target" not in d:
+            opts.target = "ball"
+        if opts.setup == "eye-to-hand" and opts.target != "ball":
+            raise ValueError(f"eye-to-hand calibrates with a ball on the flange, got target {opts.target!r}")
         if opts.setup == "eye-to-hand" and "distance_m" not in d:
             opts.distance_m = EYE_TO_HAND_DISTANCE_M
         if opts.ball_radius is not None and not 0.005 <= opts.ball_radius <= 0.1:

@@ -109,3 +109,33 @@ class BallEye:
         r = render(rc, colour_of, self.cell.T_base_cam, self.camera, self.rng)
         self.frames += 1
         return Frame(max(stamp_ns, self.arm.clock_ns), r.points_cam.astype(np.float64), r.rgb)
+
+
+class TableBallEye:
+    """A D435 on the flange of ``arm`` at the true ``T_flange_cam`` (4, 4) seeing a coloured ball
+    of ``radius_m`` lying on the table at ``p_ball_base`` (3,), base frame, metres."""
+
+    def __init__(
+        self,
+        arm: KinematicArm,
+        T_flange_cam: np.ndarray,
+        p_ball_base: np.ndarray,
+        radius_m: float,
+        seed: int = 0,
+    ) -> None:
+        from sofia_camera.sim_fixed import table_and_ball
+        from sofia_replay.synth import Camera
+
+        self.arm, self.T_flange_cam = arm, np.asarray(T_flange_cam, dtype=np.float64)
+        self.scene = table_and_ball(np.asarray(p_ball_base, dtype=np.float64), radius_m)
+        self.camera = Camera()
+        self.rng = np.random.default_rng(seed)
+        self.frames = 0
+
+    def frame_after(self, stamp_ns: int, timeout_s: float) -> Frame | None:
+        from sofia_replay.synth.camera import render
+
+        T_base_cam = self.arm.T_base_flange() @ self.T_flange_cam
+        r = render(self.scene[0], self.scene[1], T_base_cam, self.camera, self.rng)
+        self.frames += 1
+        return Frame(max(stamp_ns, self.arm.clock_ns), r.points_cam.astype(np.float64), r.rgb)

@@ -17,7 +17,8 @@ from .targets.apriltag import TagSpec, tag_poses
 from .targets.board_points import board_points_fit, corner_points
 from .targets.charuco import BoardSpec, board_poses
 from .targets.poses import DEFAULT_SIZE_M, PoseFit, fixed_target, hand_eye_from_poses, residuals
-from .targets.sphere import DEFAULT_INLIER_M, sphere_centres
+from .targets.sphere import DEFAULT_INLIER_M
+from .targets.sphere_shared import sphere_centres
 
 TARGETS = ("blob", "sphere", "poses", "charuco", "apriltag")
 PLANNED: tuple[str, ...] = ()  # targets named but not built yet
@@ -51,7 +52,7 @@ def calibrate_target(
 
     T_base_flange: (n, 4, 4) flange poses. target "blob": p_cam (n, 3) camera frame, metres;
     "sphere": clouds_cam, n clouds (m_i, 3) camera frame, metres, the sphere of ``radius_m`` (None:
-    fitted) found in each; "poses": T_cam_target (n, 4, 4) measured target poses (``size_m``: the
+    one radius fitted to all the views) found in each; "poses": T_cam_target (n, 4, 4) measured target poses (``size_m``: the
     target's size, weighting a rotation in the first pass); "charuco": grey images (h, w) uint8, the
     camera matrix K (3, 3) and the ``board`` (:class:`BoardSpec`), each view's board pose by PnP
     on its ChArUco corners, then as "poses" (with ``clouds_cam``, organized (h, w, 3) clouds

@@ -18,14 +18,16 @@ def add_target_args(p: argparse.ArgumentParser) -> None:
     """--target / --setup and the inputs of the sphere and pose targets."""
     g = p.add_argument_group("target and set-up")
     g.add_argument("--target", default="blob", choices=("blob", "sphere", "poses", "charuco", "apriltag"),
-                   help="what the camera sees: blob (default), sphere (--clouds), poses (--pose-pairs), "
+                   help="what the camera sees: blob (default), sphere (--clouds, or a coloured ball in --mcap's clouds), poses (--pose-pairs), "
                    "charuco (--images, --camera-matrix, --board), apriltag (--images, --camera-matrix, --tag-size)")  # fmt: skip
     g.add_argument("--setup", default="eye-in-hand", choices=("eye-in-hand", "eye-to-hand"),
                    help="eye-in-hand: camera on the flange (T_flange_cam, default); eye-to-hand: camera "
                    "fixed, target on the flange (T_base_cam)")  # fmt: skip
     g.add_argument("--clouds", nargs="+", metavar="CLOUD", help="sphere: one PCD/PLY cloud per flange pose")
     g.add_argument("--cloud-unit", type=float, default=1.0, help="metres per cloud unit (default 1)")
-    g.add_argument("--radius", type=float, help="sphere radius, metres (default: fitted)")
+    g.add_argument(
+        "--radius", type=float, help="sphere radius, metres (default: one radius fitted to all the views)"
+    )
     g.add_argument("--euler-poses", metavar="FILE",
                    help="flange poses as 'a, b, c, x, y, z' lines (radians; see --euler-convention)")  # fmt: skip
     g.add_argument("--euler-convention", default="xyz", help="SciPy Euler sequence (default xyz)")
@@ -37,6 +39,10 @@ def add_target_args(p: argparse.ArgumentParser) -> None:
     g.add_argument(
         "--images", nargs="+", metavar="IMAGE", help="charuco: one rectified image per flange pose"
     )
+    g.add_argument("--depth", nargs="+", metavar="DEPTH",
+                   help="charuco: one depth image per image (16-bit PNG, registered to it): the corners "
+                   "with depth refine the fit")  # fmt: skip
+    g.add_argument("--depth-unit", type=float, default=1e-3, help="metres per --depth unit (default mm)")
     g.add_argument("--camera-matrix", metavar="'fx fy cx cy'|FILE",
                    help="charuco: the images' intrinsics (pixels), or a YAML/JSON file with K or fx fy cx cy")  # fmt: skip
     g.add_argument("--board", nargs=4, type=float, metavar=("COLS", "ROWS", "SQUARE", "MARKER"),
@@ -79,6 +85,17 @@ def run_target(args: argparse.Namespace) -> object:
         return calibrate_target("poses", args.setup, T_base_flange=T, T_cam_target=T_cam_target, **common)
     if args.target in ("charuco", "apriltag"):
         return calibrate_target(args.target, args.setup, **image_inputs(args), **common)
+    options: dict[str, Any] = {"sigma": args.noise, "loss": args.loss, "exclude_outliers": not args.keep_outliers,
+               "correction": args.correction, **common}  # fmt: skip
+    if args.target == "sphere" and args.mcap:  # a coloured ball in the recording's camera clouds
+        from .inputs.mcap import read_mcap
+
+        m = read_mcap(args.mcap, from_clouds=True, target="ball", radius_m=args.radius)
+        for r in m.rejected:
+            print(f"skipped: {r}", file=sys.stderr)
+        if m.radius_m is not None:
+            print(f"ball radius {1e3 * m.radius_m:.2f} mm, fitted to {len(m.p_cam)} views", file=sys.stderr)
+        return calibrate_target("blob", args.setup, T_base_flange=m.T_base_flange, p_cam=m.p_cam, **options)
     if args.euler_poses:
         from .targets.files import read_euler_poses
 
@@ -89,13 +106,13 @@ def run_target(args: argparse.Namespace) -> object:
         T = read_tfs(args.tfs)
     else:
         p_cam, T = load_samples(args)
-    options: dict[str, Any] = {"sigma": args.noise, "loss": args.loss, "exclude_outliers": not args.keep_outliers,
-               "correction": args.correction, **common}  # fmt: skip
     if args.target == "sphere":
         from .targets.files import read_cloud
 
         if not args.clouds:
-            raise InputMismatch("--target sphere needs --clouds, one cloud file per flange pose")
+            raise InputMismatch(
+                "--target sphere needs --clouds (one cloud file per flange pose) or --mcap FILE"
+            )
         if len(args.clouds) != len(T):
             raise InputMismatch(f"{len(args.clouds)} clouds but {len(T)} flange poses")
         clouds = [read_cloud(c) * args.cloud_unit for c in args.clouds]
@@ -127,11 +144,21 @@ def image_inputs(args: argparse.Namespace) -> dict[str, Any]:
         )
     if len(args.images) != len(T):
         raise InputMismatch(f"{len(args.images)} images but {len(T)} flange poses")
-    inputs = {
+    inputs: dict[str, Any] = {
         "T_base_flange": T,
         "images": read_grey_images(args.images),
         "K": read_camera_matrix(args.camera_matrix),
     }
+    if args.depth:
+        from .targets.files import read_depth_clouds
+
+        if args.target != "charuco":
+            raise InputMismatch(
+                f"--depth is for --target charuco (its corners with depth), not {args.target}"
+            )
+        if len(args.depth) != len(args.images):
+            raise InputMismatch(f"{len(args.depth)} depth images but {len(args.images)} images")
+        inputs["clouds_cam"] = read_depth_clouds(args.depth, inputs["K"], args.depth_unit)
     if args.target == "apriltag":
         return {**inputs, "tag": TagSpec(args.tag_family, args.tag_id, args.tag_size)}
     import cv2

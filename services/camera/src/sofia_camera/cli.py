@@ -19,10 +19,11 @@ def _add_sim_args(p: argparse.ArgumentParser) -> None:
     g = p.add_argument_group("simulation (--sim)")
     g.add_argument(
         "--sim-scene",
-        choices=("calibration", "board", "eye-to-hand"),
+        choices=("calibration", "board", "eye-to-hand", "ball"),
         default="calibration",
-        help="the blob sheet for calibration, the board with objects, or eye-to-hand: the camera on a "
-        "fixed mount and a ball on the flange (default calibration)",
+        help="the blob sheet for calibration, the board with objects, eye-to-hand: the camera on a "
+        "fixed mount and a ball on the flange, or ball: a ball on the table at --sim-target's x y, "
+        "radius --sim-ball's R (default calibration)",
     )
     g.add_argument(
         "--sim-T-base-cam",
@@ -37,7 +38,7 @@ def _add_sim_args(p: argparse.ArgumentParser) -> None:
         type=float,
         metavar=("X", "Y", "Z", "R"),
         help="eye-to-hand scene: the ball's centre in the flange frame and its radius, metres "
-        "(default 0 0 0.1 0.025)",
+        "(default 0 0 0.1 0.025); ball scene: its radius R",
     )
     g.add_argument(
         "--sim-T-flange-cam",
@@ -51,7 +52,8 @@ def _add_sim_args(p: argparse.ArgumentParser) -> None:
         nargs=3,
         type=float,
         metavar=("X", "Y", "Z"),
-        help="calibration scene: blob centre in the base frame, metres (default 0.45 0.25 -0.0495)",
+        help="calibration scene: blob centre in the base frame, metres (default 0.45 0.25 -0.0495); "
+        "ball scene: the ball's x y (resting on the table unless z is higher)",
     )
     g.add_argument(
         "--sim-blob-radius", type=float, default=0.015, metavar="M", help="blob radius (default 0.015)"

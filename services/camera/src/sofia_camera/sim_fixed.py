@@ -25,6 +25,7 @@ DEFAULT_T_BASE_CAM = look_at(
 DEFAULT_BALL_FLANGE = (0.0, 0.0, 0.1)  # the ball's centre 10 cm out along the flange z axis
 DEFAULT_BALL_RADIUS = 0.025
 BALL_RESOLUTION = 96  # triangle-mesh sphere: faceting error below 5 um at these radii
+BALL_COLOUR = FlangeBall.model_fields["colour"].default  # orange
 
 
 def eye_to_hand_state(
@@ -73,27 +74,36 @@ class FixedCameraCell:
     def scene_at(self, T_base_flange: np.ndarray) -> tuple[o3d.t.geometry.RaycastingScene, Any]:
         """The ray-casting scene (table and ball) with the flange at ``T_base_flange`` (4, 4), and
         the colour of each hit (``colour_of(ids, points_base)``)."""
-        rc = o3d.t.geometry.RaycastingScene()
-        table_id = rc.add_triangles(
-            _box(
-                np.array([1.6, 2.0, 0.04]),
-                np.array([[1, 0, 0, 0.6], [0, 1, 0, 0], [0, 0, 1, TABLE_Z - 0.02], [0, 0, 0, 1.0]]),
-            )
-        )
         ball = self.ball
-        mesh = o3d.geometry.TriangleMesh.create_sphere(ball.radius_m, resolution=BALL_RESOLUTION)
-        mesh.translate(ball.centre_base(T_base_flange))
-        ball_id = rc.add_triangles(o3d.t.geometry.TriangleMesh.from_legacy(mesh))
-        colour = np.array(ball.colour, dtype=np.uint8)
-
-        def colour_of(ids: np.ndarray, points_base: np.ndarray) -> np.ndarray:
-            out = np.zeros((ids.size, 3), dtype=np.uint8)
-            out[ids == table_id] = TABLE
-            out[ids == ball_id] = colour
-            return out
-
-        return rc, colour_of
+        return table_and_ball(ball.centre_base(T_base_flange), ball.radius_m, ball.colour)
 
     def truth(self) -> dict[str, Any]:
         """JSON-able truth: ``T_base_cam`` and the ball (flange frame, metres)."""
         return {"T_base_cam": self.T_base_cam.tolist(), "ball": self.ball.model_dump(mode="json")}
+
+
+def table_and_ball(
+    p_ball_base: np.ndarray, radius_m: float, colour: tuple[int, int, int] = BALL_COLOUR
+) -> tuple[o3d.t.geometry.RaycastingScene, Any]:
+    """The ray-casting scene of the table (top at ``TABLE_Z``) and a ball of ``radius_m`` centred
+    at p_ball_base (3,), base frame, metres; and the colour of each hit (``colour_of(ids,
+    points_base)``). The ball may lie on the table (eye-in-hand) or ride on the flange."""
+    rc = o3d.t.geometry.RaycastingScene()
+    table_id = rc.add_triangles(
+        _box(
+            np.array([1.6, 2.0, 0.04]),
+            np.array([[1, 0, 0, 0.6], [0, 1, 0, 0], [0, 0, 1, TABLE_Z - 0.02], [0, 0, 0, 1.0]]),
+        )
+    )
+    mesh = o3d.geometry.TriangleMesh.create_sphere(radius_m, resolution=BALL_RESOLUTION)
+    mesh.translate(np.asarray(p_ball_base, dtype=np.float64))
+    ball_id = rc.add_triangles(o3d.t.geometry.TriangleMesh.from_legacy(mesh))
+    rgb = np.array(colour, dtype=np.uint8)
+
+    def colour_of(ids: np.ndarray, points_base: np.ndarray) -> np.ndarray:
+        out = np.zeros((ids.size, 3), dtype=np.uint8)
+        out[ids == table_id] = TABLE
+        out[ids == ball_id] = rgb
+        return out
+
+    return rc, colour_of

@@ -1,6 +1,7 @@
 """The world the simulated D435 looks at: the calibration blob sheet or the board with objects,
 built with the project's Open3D ray caster (``sofia_replay.synth``), or the eye-to-hand cell (a
-fixed camera and a ball on the flange, :mod:`sofia_camera.sim_fixed`), and its ground truth.
+fixed camera and a ball on the flange, :mod:`sofia_camera.sim_fixed`), or a ball on the table for
+the flange camera (``ball``), and its ground truth.
 
 Everything is in the robot base frame (metres). The board scene is deterministic in its seed.
 """
@@ -26,10 +27,11 @@ from .sim_fixed import (
     DEFAULT_T_BASE_CAM,
     FixedCameraCell,
     eye_to_hand_state,
+    table_and_ball,
 )
 
-SceneName = Literal["calibration", "board", "eye-to-hand"]
-SCENES: tuple[SceneName, ...] = ("calibration", "board", "eye-to-hand")
+SceneName = Literal["calibration", "board", "eye-to-hand", "ball"]
+SCENES: tuple[SceneName, ...] = ("calibration", "board", "eye-to-hand", "ball")
 KINDS = ("one", "two", "nonred", "empty", "sort")
 # the lab's sorting task: a yellow, a green and a blue object, and a distractor of another colour
 SORT_COLOURS = (("yellow", (230, 200, 40)), ("green", (40, 160, 60)), ("blue", (30, 80, 200)),
@@ -150,6 +152,12 @@ class SimWorld:
             )
             self.raycasting, self.colour_of = self.fixed.scene_at(np.eye(4))
             self.scene = None
+        elif options.scene == "ball":  # on the table at the target's x y (its z: resting on the table)
+            x, y, z = options.target_base
+            on_table = z if z > TABLE_Z + options.ball_radius - 1e-3 else TABLE_Z + options.ball_radius
+            self.ball_base = np.array([x, y, on_table])
+            self.raycasting, self.colour_of = table_and_ball(self.ball_base, options.ball_radius)
+            self.scene = None
         elif options.scene == "calibration":
             self.target = CalibrationTarget(
                 p_base=np.array(options.target_base, float), radius=options.blob_radius
@@ -199,6 +207,8 @@ class SimWorld:
         if self.fixed is not None:
             out.update(self.fixed.truth())
             del out["T_flange_cam"]  # no camera on the flange
+        elif o.scene == "ball":
+            out["ball"] = {"p_base": self.ball_base.tolist(), "radius_m": o.ball_radius}
         elif self.scene is None:
             out["blob"] = {"p_base": list(map(float, self.target.p_base)), "radius": self.target.radius}
         else:

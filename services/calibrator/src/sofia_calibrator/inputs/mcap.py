@@ -1,5 +1,7 @@
 """Calibration samples from an MCAP recording: blob observations (or camera clouds, extracting
-the blob) paired with the recorded flange poses."""
+the blob or a coloured ball) paired with the recorded flange
+poses. A ball of unknown radius: every paired view's centre is refitted with one radius shared by
+all of them (:func:`~sofia_calibrator.targets.sphere_shared.fit_shared`)."""
 
 from __future__ import annotations
 
@@ -15,6 +17,7 @@ from ..errors import CalibrationError, InputMismatch
 from ..pairing import NotPaired, PairingOptions, PoseBuffer
 
 log = logging.getLogger(__name__)
+CLOUD_TARGETS = ("blob", "ball")
 
 
 @dataclass
@@ -23,19 +26,25 @@ class McapSamples:
     T_base_flange: np.ndarray  # (n, 4, 4)
     stamps_ns: list[int]
     rejected: list[str] = field(default_factory=list)  # why each skipped observation was skipped
+    radius_m: float | None = None  # a ball's radius fitted to all the views (None: given, or a blob)
 
 
 def read_mcap(
     path: str | Path, from_clouds: bool = False, opts: PairingOptions | None = None,
     blob_topic: str = TOPIC_BLOB, pose_topic: str = TOPIC_FLANGE_POSE, cloud_topic: str = TOPIC_CAMERA_POINTS,
+    target: str = "blob", radius_m: float | None = None,
 ) -> McapSamples:  # fmt: skip
-    """Samples of a recording. ``from_clouds``: extract the blob from the organized camera clouds
-    instead of reading recorded blob observations."""
+    """Samples of a recording. ``from_clouds``: extract the target (``target``: ``blob``, or
+    ``ball`` of ``radius_m`` metres, None: fitted) from the organized camera clouds instead of
+    reading recorded blob observations."""
+    if target not in CLOUD_TARGETS:
+        raise InputMismatch(f"target must be one of {list(CLOUD_TARGETS)}, got {target!r}")
     from sofia_replay.mcap_io import iter_messages
 
     opts = opts or PairingOptions()
     poses = PoseBuffer()
     observations: list[tuple[int, np.ndarray]] = []
+    segments: dict[int, tuple[np.ndarray, np.ndarray, float] | None] = {}  # a ball's view, by stamp
     rejected: list[str] = []
     topics = [pose_topic, cloud_topic if from_clouds else blob_topic]
     for m in iter_messages(path, topics):
@@ -45,21 +54,20 @@ def read_mcap(
         elif from_clouds:
             from sofia_schemas import pointcloud
 
-            from ..blob import find_blob
-
             cloud = pointcloud.decode(m.data)
             try:
                 xyz, rgb = cloud.xyz(), cloud.rgb()
                 if rgb is None:
                     raise InputMismatch(
-                        f"cloud on {cloud_topic!r} has no rgb field: the blob cannot be found"
+                        f"cloud on {cloud_topic!r} has no rgb field: the {target} cannot be found"
                     )
                 shape = (cloud.height, cloud.width, 3)
-                blob = find_blob(xyz.reshape(shape), rgb.reshape(shape))
+                p_cam, segment = _find(target, radius_m, xyz.reshape(shape), rgb.reshape(shape))
             except CalibrationError as e:
                 rejected.append(f"cloud at {cloud.stamp_ns} ns: {e}")
                 continue
-            observations.append((cloud.stamp_ns, blob.p_cam))
+            observations.append((cloud.stamp_ns, p_cam))
+            segments[cloud.stamp_ns] = segment
         else:
             obs = rosmsg.decode_blob(m.data)
             observations.append((obs.stamp_ns, np.array(obs.position)))
@@ -79,4 +87,25 @@ def read_mcap(
         )
     for r in rejected:
         log.info("skipped: %s", r)
-    return McapSamples(np.array(p), np.array(T), stamps, rejected)
+    radius = None
+    views = [segments.get(t) for t in stamps]
+    if target == "ball" and radius_m is None and len(views) >= 2 and all(v is not None for v in views):
+        from ..targets.sphere_shared import fit_shared
+
+        spheres = fit_shared([v for v in views if v is not None])
+        p, radius = [s.p_cam for s in spheres], spheres[0].radius_m
+    return McapSamples(np.array(p), np.array(T), stamps, rejected, radius)
+
+
+def _find(
+    target: str, radius_m: float | None, points_cam: np.ndarray, rgb: np.ndarray
+) -> tuple[np.ndarray, tuple[np.ndarray, np.ndarray, float] | None]:
+    """(p_cam (3,), the ball's segment or None for a blob) of the target in an organized cloud."""
+    if target == "ball":
+        from ..targets.ball import find_ball
+
+        ball = find_ball(points_cam, rgb, radius_m)
+        return ball.p_cam, ball.segment
+    from ..blob import find_blob
+
+    return find_blob(points_cam, rgb).p_cam, None

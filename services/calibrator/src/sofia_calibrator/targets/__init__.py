@@ -3,7 +3,8 @@ their uncertainty, for :func:`sofia_calibrator.calibrate`."""
 
 from .ball import Ball, find_ball
 from .files import read_cloud, read_euler_poses
-from .sphere import Sphere, SphereNotFound, find_sphere, sphere_centres
+from .sphere import Sphere, SphereNotFound, find_sphere
+from .sphere_shared import shared_spheres, sphere_centres
 
 __all__ = [
     "Ball",
@@ -13,5 +14,6 @@ __all__ = [
     "find_sphere",
     "read_cloud",
     "read_euler_poses",
+    "shared_spheres",
     "sphere_centres",
 ]

@@ -2,8 +2,8 @@
 
 The ball's pixels are the largest connected region of strongly coloured pixels (OpenCV's HSV
 conversion and ``connectedComponentsWithStats``), eroded by a pixel so that the depth edge's
-mixed pixels are left out; their points go to :func:`~sofia_calibrator.targets.sphere.find_sphere`
-(RANSAC, then a geometric least-squares refinement) with an inlier band matched to the D435's
+mixed pixels are left out; their points go to the sphere fit (:mod:`~sofia_calibrator.targets.sphere`:
+RANSAC, then a geometric least-squares refinement) with an inlier band matched to the D435's
 depth noise at the ball's distance. The centre is the calibration point of the view, usable
 wherever a blob's is (eye-in-hand with the ball fixed in the cell, eye-to-hand with the ball on
 the flange).
@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import InputMismatch
-from .sphere import DEFAULT_INLIER_M, Sphere, SphereNotFound, find_sphere
+from .sphere import DEFAULT_INLIER_M, Sphere, SphereNotFound, refine_sphere, segment_sphere
 
 MIN_SATURATION = 110  # OpenCV HSV saturation (0-255) above which a pixel may be the ball's
 MIN_VALUE = 50  # and brightness above which (dark pixels have unreliable hue)
@@ -32,6 +32,9 @@ class Ball:
     confidence: float  # 0..1: the share of the ball's pixels on the fitted sphere
     centroid_px: tuple[float, float]  # (u, v) of the ball's pixels
     n_pixels: int
+    # (inliers (k, 3) camera frame m, RANSAC centre (3,), radius): the view's segment, for one
+    # radius fitted to several views (:func:`~sofia_calibrator.targets.sphere_shared.fit_shared`)
+    segment: tuple[np.ndarray, np.ndarray, float]
 
     @property
     def p_cam(self) -> np.ndarray:
@@ -76,8 +79,9 @@ def find_ball(points_cam: np.ndarray, rgb: np.ndarray, radius_m: float | None = 
         )
     z = float(np.median(pts[:, 2]))
     inlier_m = max(DEFAULT_INLIER_M, 2.5 * NOISE_AT_HALF_M * (z / 0.5) ** 2)
-    sphere = find_sphere(pts, radius_m, inlier_m)
+    segment = segment_sphere(pts, radius_m, inlier_m)
+    inliers, centre, radius = segment
+    sphere = refine_sphere(inliers, centre, radius if radius_m is None else radius_m, radius_m is None)
     v, u = np.nonzero(mask)
-    return Ball(
-        sphere, min(1.0, sphere.n_inliers / len(pts)), (float(u.mean()), float(v.mean())), int(mask.sum())
-    )
+    return Ball(sphere, min(1.0, sphere.n_inliers / len(pts)), (float(u.mean()), float(v.mean())),
+                int(mask.sum()), segment)  # fmt: skip

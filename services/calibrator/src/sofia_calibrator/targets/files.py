@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from ..errors import ParseError
+from ..errors import InputMismatch, ParseError
 
 
 def read_cloud(path: str | Path) -> np.ndarray:
@@ -120,3 +120,24 @@ def read_camera_matrix(text: str) -> np.ndarray:
     if not all(np.isfinite([fx, fy, cx, cy])) or fx <= 0 or fy <= 0:
         raise ParseError(Path(text), None, f"focal lengths must be positive, got fx {fx}, fy {fy}")
     return np.array([[fx, 0.0, cx], [0.0, fy, cy], [0.0, 0.0, 1.0]])
+
+
+def read_depth_clouds(paths: list[str], K: np.ndarray, unit_m: float = 1e-3) -> list[np.ndarray]:
+    """Organized clouds (h, w, 3), camera optical frame, metres (NaN where the depth is 0), of depth
+    images (16-bit PNG or any single-channel image OpenCV reads, ``unit_m`` metres per unit, each
+    registered to its colour image) back-projected through the camera matrix K (3, 3)."""
+    import cv2
+
+    if not 0 < unit_m < 1:
+        raise InputMismatch(f"the depth unit must be in (0, 1) metres, got {unit_m}")
+    clouds = []
+    for p in paths:
+        depth = cv2.imread(str(p), cv2.IMREAD_UNCHANGED)
+        if depth is None or depth.ndim != 2:
+            raise ParseError(Path(p), None, "not a single-channel depth image OpenCV can read")
+        z = depth.astype(np.float64) * unit_m
+        z[z <= 0] = np.nan
+        v, u = np.mgrid[0 : z.shape[0], 0 : z.shape[1]]
+        rays = np.stack([(u - K[0, 2]) / K[0, 0], (v - K[1, 2]) / K[1, 1], np.ones(z.shape)], axis=-1)
+        clouds.append(rays * z[..., None])
+    return clouds

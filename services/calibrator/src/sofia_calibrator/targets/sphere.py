@@ -78,6 +78,18 @@ def find_sphere(
     metres (NaN and z <= 0 ignored). radius_m: the known radius (metres) or None to fit it.
     inlier_m: distance to the surface counted as the sphere's. Raises :class:`SphereNotFound`
     when fewer than ``MIN_INLIER_FRACTION`` of the points (and 30) lie on one sphere."""
+    inliers, centre, radius = segment_sphere(points_cam, radius_m, inlier_m, rng)
+    return refine_sphere(inliers, centre, radius if radius_m is None else radius_m, radius_m is None)
+
+
+def segment_sphere(
+    points_cam: np.ndarray,
+    radius_m: float | None = None,
+    inlier_m: float = DEFAULT_INLIER_M,
+    rng: np.random.Generator | None = None,
+) -> tuple[np.ndarray, np.ndarray, float]:
+    """RANSAC's sphere of a cloud (as :func:`find_sphere`): (inliers (k, 3), centre (3,), radius),
+    camera optical frame, metres, before the least-squares refinement."""
     p = _validate(points_cam, radius_m)
     rng = np.random.default_rng(0) if rng is None else rng
     quads = p[rng.integers(0, len(p), (RANSAC_DRAWS, 4))]
@@ -99,9 +111,7 @@ def find_sphere(
     inl = np.abs(np.linalg.norm(p - centres[best], axis=1) - radii[best]) < inlier_m
     if inl.sum() < max(MIN_POINTS, MIN_INLIER_FRACTION * len(p)):
         raise SphereNotFound(f"the best sphere holds {int(inl.sum())} of {len(p)} points within {inlier_m} m")
-    return refine_sphere(
-        p[inl], centres[best], radii[best] if radius_m is None else radius_m, radius_m is None
-    )
+    return p[inl], centres[best], float(radii[best])
 
 
 def refine_sphere(points: np.ndarray, centre: np.ndarray, radius_m: float, fit_radius: bool) -> Sphere:
@@ -128,14 +138,3 @@ def refine_sphere(points: np.ndarray, centre: np.ndarray, radius_m: float, fit_r
         sigma_cam=np.sqrt(np.maximum(cov.diagonal()[:3], 0.0)), covariance=cov[:3, :3],
         n_inliers=len(points), rms_m=float(np.sqrt(np.mean(r**2))),
     )  # fmt: skip
-
-
-def sphere_centres(
-    clouds_cam: list[np.ndarray], radius_m: float | None = None, inlier_m: float = DEFAULT_INLIER_M
-) -> tuple[np.ndarray, np.ndarray]:
-    """The calibration points of n views of a sphere: (p_cam (n, 3), sigma_cam (n, 3)), camera
-    optical frame, metres; each view's cloud (m_i, 3) or (h, w, 3), metres. ``p_cam`` goes where
-    the blob positions go (:func:`sofia_calibrator.calibrate`, with ``sigma=sigma_cam`` to weight
-    the views by their fit's uncertainty)."""
-    spheres = [find_sphere(c, radius_m, inlier_m) for c in clouds_cam]
-    return np.array([s.p_cam for s in spheres]), np.array([s.sigma_cam for s in spheres])

@@ -34,15 +34,8 @@ from .motion import ArmMotion
 from .poses import Reach, in_image, solve_ik, views_of
 
 log = logging.getLogger("sofia.arm.autocal")
-__all__ = [
-    "Autocal",
-    "AutocalError",
-    "AutocalOptions",
-    "BallAutocal",
-    "FixedAutocal",
-    "Outcome",
-    "run_autocal",
-]
+__all__ = ["Autocal", "AutocalError", "AutocalOptions", "BallAutocal", "FixedAutocal", "Outcome",
+           "run_autocal"]  # fmt: skip
 MAX_OFFSET_M = 0.25  # a camera on the flange is closer than this to the flange origin
 TRUST_SIGMA_MM = 5.0  # the calibrator's estimate steers the views once the model predicts this 1-sigma
 # where the blob may be put in the image (right, down; degrees): off-centre views observe the
@@ -75,10 +68,8 @@ class Autocal(Looker):
                         dists, np.arange(0, 360, 60), offsets)  # fmt: skip
         T_bf = T_bc @ invert(self.T_fc)
         p_cam = apply(invert(T_bf @ self.T_fc), np.broadcast_to(self.p_base, (len(T_bf), 3)))
-        keep = self.reach.in_box(T_bf[:, :3, 3]) & in_image(
-            p_cam, self.K, self.image_size, self.opts.margin_px
-        )
-        return np.asarray(T_bf[keep])
+        in_view = in_image(p_cam, self.K, self.image_size, self.opts.margin_px)
+        return np.asarray(T_bf[self.reach.in_box(T_bf[:, :3, 3]) & in_view])
 
     def model_poses(self, T_base_flange: np.ndarray) -> np.ndarray:
         """(n, 4, 4) the poses of the calibrator's model for flange poses (n, 4, 4): themselves
@@ -152,9 +143,9 @@ class Autocal(Looker):
             if self.trusted:  # the views pin the calibrator's estimate: steer by it
                 self.T_fc = np.array(self.result.matrix)
                 self.p_base = np.array(self.result.target_base)
-            s = self.result.std_translation_mm
-            m = self.model_sigma_mm()
-            text += f"; 1-sigma t [{s[0]:.2f}, {s[1]:.2f}, {s[2]:.2f}] mm (model [{m[0]:.2f}, {m[1]:.2f}, {m[2]:.2f}])"
+            s, m = (np.array2string(np.asarray(v), separator=", ", floatmode="fixed", precision=2)
+                    for v in (self.result.std_translation_mm, self.model_sigma_mm()))  # fmt: skip
+            text += f"; 1-sigma t {s} mm (model {m})"
         return True, text
 
     def model_sigma_mm(self) -> np.ndarray:

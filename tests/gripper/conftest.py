@@ -49,6 +49,20 @@ def emulator_p1(tmp_path: Path) -> Iterator[Emulator]:
         yield emu
 
 
+@pytest.fixture
+def overloaded_p1(emulator_p1: Emulator) -> Iterator[Gripper]:
+    """A Protocol 1.0 gripper, connected, then in the error state of an overload of its servo."""
+    g = Gripper(make_config(emulator_p1.path, protocol=1))
+    g.start()
+    try:
+        wait_until(lambda: g.state.connected, 3.0, "P1 connected")
+        emulator_p1.inject_overload()
+        wait_until(lambda: g.state.status == "error", 2.0, "P1 error state")
+        yield g
+    finally:
+        g.close()
+
+
 class StateLog:
     def __init__(self) -> None:
         self.states: list[GripperState] = []

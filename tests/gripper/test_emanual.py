@@ -120,25 +120,20 @@ def test_moving_stays_set_while_the_profile_runs_and_the_grasp_reports_on_the_st
 # --- Protocol 1.0 Alarm Shutdown / Torque Limit(34) ----------------------------------------------
 
 
-def test_protocol1_shutdown_sets_torque_limit_to_zero_and_torque_on_recovers(emulator_p1: Emulator) -> None:
+def test_protocol1_shutdown_sets_torque_limit_to_zero_and_torque_on_recovers(
+    emulator_p1: Emulator, overloaded_p1: Gripper
+) -> None:
     """MX-64AR/AT "Alarm Shutdown": the output becomes 0 % by setting Torque Limit(34) to 0; the
     servo is usable again once it is written non-zero."""
-    g = Gripper(make_config(emulator_p1.path, protocol=1))
-    g.start()
-    try:
-        wait_until(lambda: g.state.connected, 3.0, "connected")
-        emulator_p1.inject_overload()
-        wait_until(lambda: g.state.status == "error", 2.0, "error state")
-        assert emulator_p1.servo.get("torque_limit") == 0 and emulator_p1.servo.get("torque_enable") == 1
-        assert "torque on" in (g.state.error or "") and "reboot" not in (g.state.error or "")
-        with pytest.raises(NotReady, match="overload"):
-            g.execute(Cmd(action="close"))
-        assert g.execute(Cmd(action="torque", enable=True)).ok
-        assert emulator_p1.servo.get("torque_limit") > 0
-        wait_until(lambda: g.state.status == "ok", 2.0, "ok after torque on")
-        assert g.execute(Cmd(action="close")).ok
-    finally:
-        g.close()
+    g = overloaded_p1
+    assert emulator_p1.servo.get("torque_limit") == 0 and emulator_p1.servo.get("torque_enable") == 1
+    assert "torque on" in (g.state.error or "") and "reboot" not in (g.state.error or "")
+    with pytest.raises(NotReady, match="overload"):
+        g.execute(Cmd(action="close"))
+    assert g.execute(Cmd(action="torque", enable=True)).ok
+    assert emulator_p1.servo.get("torque_limit") > 0
+    wait_until(lambda: g.state.status == "ok", 2.0, "ok after torque on")
+    assert g.execute(Cmd(action="close")).ok
 
 
 # --- Min/Max Position Limit(48, 52) ----------------------------------------------------------------

@@ -129,23 +129,16 @@ def test_wrong_model_is_refused(emulator: Emulator) -> None:
         g.close()
 
 
-def test_protocol1_overload_is_reported_and_torque_on_rearms(emulator_p1: Emulator) -> None:
-    g = Gripper(make_config(emulator_p1.path, protocol=1))
-    g.start()
-    try:
-        wait_until(lambda: g.state.connected, 3.0, "P1 connected")
-        emulator_p1.inject_overload()
-        wait_until(lambda: g.state.status == "error", 2.0, "P1 error state")
-        assert g.state.hardware_error == ["overload"] and "send torque on" in (g.state.error or "")
-        with pytest.raises(NotReady, match="overload"):
-            g.execute(Cmd(action="open"))
-        with pytest.raises(GripperError, match="no Reboot instruction"):
-            g.execute(Cmd(action="reboot"))
-        assert g.execute(Cmd(action="torque", enable=True)).ok
-        wait_until(lambda: g.state.status == "ok", 2.0, "P1 re-armed")
-        assert g.execute(Cmd(action="close")).ok
-    finally:
-        g.close()
+def test_protocol1_overload_is_reported_and_torque_on_rearms(overloaded_p1: Gripper) -> None:
+    g = overloaded_p1
+    assert g.state.hardware_error == ["overload"] and "send torque on" in (g.state.error or "")
+    with pytest.raises(NotReady, match="overload"):
+        g.execute(Cmd(action="open"))
+    with pytest.raises(GripperError, match="no Reboot instruction"):
+        g.execute(Cmd(action="reboot"))
+    assert g.execute(Cmd(action="torque", enable=True)).ok
+    wait_until(lambda: g.state.status == "ok", 2.0, "P1 re-armed")
+    assert g.execute(Cmd(action="close")).ok
 
 
 def test_a_late_servo_is_waited_for_with_the_reply_margin(

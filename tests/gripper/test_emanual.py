@@ -16,7 +16,7 @@ from sofia_gripper import Emulator, Gripper, GripperError, NotReady
 from sofia_gripper.control_table import WATCHDOG_TRIPPED
 from sofia_schemas.messages import GripperCommand as Cmd
 
-from .conftest import make_config, wait_until
+from .conftest import connected, make_config, wait_until
 
 P2_ERR_DATA_RANGE, P2_ERR_DATA_LENGTH, P2_ERR_LIMIT = 4, 5, 6
 
@@ -155,16 +155,11 @@ def test_current_based_position_mode_ignores_position_limits(emulator: Emulator,
 
 def test_driver_clamps_to_the_calibrated_range_whatever_the_servo_limits(emulator: Emulator) -> None:
     emulator.servo.set("max_position_limit", 1500)  # would exclude the calibrated range in mode 3
-    g = Gripper(make_config(emulator.path))
-    g.start()
-    try:
-        wait_until(lambda: g.state.connected, 3.0, "connected despite the servo's limits")
+    with connected(make_config(emulator.path)) as g:
         assert g.servo.limits == (g.config.open_ticks, g.config.closed_ticks)
         assert (
             g.servo.set_goal(10_000) == g.config.closed_ticks and g.servo.set_goal(-5) == g.config.open_ticks
         )
-    finally:
-        g.close()
 
 
 def test_protocol1_angle_limits_excluding_the_range_are_named(emulator_p1: Emulator) -> None:

@@ -22,6 +22,7 @@ import argparse
 import json
 import os
 import time
+from collections import defaultdict
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -105,6 +106,27 @@ def match(det, objects: list[dict]) -> tuple[list[tuple[dict, object, float]], i
     return pairs, len(det.objects) - len(used)
 
 
+def score(r: dict[str, list], det, objects: list[dict]) -> list[tuple[dict, object, float]]:  # type: ignore[no-untyped-def, type-arg]
+    """Counts one scene into row ``r`` (a ``defaultdict(list)``): ``n`` (objects >= 70 % visible),
+    ``found`` or ``missed`` (one entry each of them), ``cut`` (less visible), ``false``, ``colour``
+    (right or not, per matched object), ``err`` (mm, matched objects >= 70 % visible); returns the
+    matched (truth, detected, error mm)."""
+    pairs, n_false = match(det, objects)
+    r["false"].append(n_false)
+    found = {id(o) for o, _, _ in pairs}
+    for o in objects:
+        if o["visibility"] < FOUND_VISIBLE:
+            r["cut"].append(1)
+            continue
+        r["n"].append(1)
+        r["found" if id(o) in found else "missed"].append(1)
+    for o, d, e in pairs:
+        r["colour"].append(d.colour == o["colour"])  # type: ignore[attr-defined]
+        if o["visibility"] >= FOUND_VISIBLE:
+            r["err"].append(e)
+    return pairs
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--per-category", type=int, default=24, help="scenes per category (default 24)")
@@ -137,25 +159,10 @@ def main() -> None:
             ms[c.resolution][-1].append(took)
         if len(base_paths[c.resolution]) < args.baseline_per_resolution:
             base_paths[c.resolution].append(path)
-        r = rows.setdefault(
-            c.category, {k: [] for k in ("n", "found", "missed", "false", "err", "colour", "cut")}
-        )
-        pairs, n_false = match(det, c.objects)
-        r["false"].append(n_false)
-        found_ids = {id(o) for o, _, _ in pairs}
-        for o in c.objects:
-            if o["visibility"] >= FOUND_VISIBLE:
-                r["n"].append(1)
-                (r["found"] if id(o) in found_ids else r["missed"]).append(1)
-            else:
-                r["cut"].append(1)
-        for o, d, e in pairs:
+        for o, d, e in score(rows.setdefault(c.category, defaultdict(list)), det, c.objects):
             conf_err.append((d.confidence, e, o["visibility"]))  # type: ignore[attr-defined]
-            if o["visibility"] >= FOUND_VISIBLE:
-                r["err"].append(e)
-                if e > MAX_MM:
-                    over.append((path.stem, o, d, e))
-            r["colour"].append(d.colour == o["colour"])  # type: ignore[attr-defined]
+            if o["visibility"] >= FOUND_VISIBLE and e > MAX_MM:
+                over.append((path.stem, o, d, e))
     print(f"\nDetector on realistic D435 scenes: {len(paths)} scenes, {len(CATEGORIES)} categories\n")
     print(
         "| category | objects >= 70 % visible | found | missed | false | centre error p50 / p95 / max (mm) | colour right | less visible |"

@@ -22,13 +22,14 @@ import argparse
 import importlib
 import sys
 import time
+from collections import defaultdict
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 from bench_detector import pct
-from bench_detector_real import FOUND_VISIBLE, TARGET_MS, Case, load_case, match, render_cases
+from bench_detector_real import TARGET_MS, Case, load_case, render_cases, score
 from sofia_detector import detect
 from sofia_replay.synth.realism import CATEGORIES
 from sofia_schemas import Board
@@ -48,26 +49,15 @@ class Tally:
         self.conf: list[tuple[float, float]] = []
 
     def add(self, category: str, case: Case, det: Any) -> None:
-        r = self.rows.setdefault(category, {k: [] for k in ("n", "found", "false", "err", "colour")})
-        pairs, n_false = match(det, case.objects)
-        r["false"].append(n_false)
-        found = {id(o) for o, _, _ in pairs}
-        for o in case.objects:
-            if o["visibility"] >= FOUND_VISIBLE:
-                r["n"].append(1)
-                r["found"].append(int(id(o) in found))
-        for o, d, e in pairs:
-            r["colour"].append(d.colour == o["colour"])
+        for _, d, e in score(self.rows.setdefault(category, defaultdict(list)), det, case.objects):
             if category != "flattened":
                 self.conf.append((d.confidence, e))
-            if o["visibility"] >= FOUND_VISIBLE:
-                r["err"].append(e)
 
     def summary(self, category: str) -> tuple[int, int, int, float, float, float, int, int]:
         r = self.rows[category]
         e = r["err"]
         return (
-            len(r["n"]), sum(r["found"]), sum(r["false"]), pct(e, 50), pct(e, 95),
+            len(r["n"]), len(r["found"]), sum(r["false"]), pct(e, 50), pct(e, 95),
             max(e) if e else float("nan"), sum(r["colour"]), len(r["colour"]),
         )  # fmt: skip
 

@@ -23,10 +23,8 @@ import shutil
 import signal
 import subprocess
 import sys
-import tempfile
 import threading
 import time
-import uuid
 from pathlib import Path
 
 import numpy as np
@@ -66,20 +64,17 @@ def store_vs_fsync(tmp: Path, n: int = 200) -> tuple[float, float]:
 
 
 def main() -> int:
+    from bench_fuzz import own_bus
     from sofia_calibrator.fitting.simulate import make_problem
     from sofia_calibrator.online import make_sample
     from sofia_runtime.memory import rss_bytes
     from sofia_runtime.zenoh_config import open_session
-    from sofia_schemas.keys import Keys
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--cycles", type=int, default=20)
     a = ap.parse_args()
-    robot = "dur" + uuid.uuid4().hex[:6]
-    keys = Keys(robot)
-    tmp = Path(tempfile.mkdtemp(prefix="sofia-durability-"))
+    keys, tmp, env = own_bus("durability")
     state, log = tmp / "state", tmp / "calibrator.log"
-    env = dict(os.environ, SOFIA_ROBOT=robot, PYTHONUNBUFFERED="1")
     pr = make_problem(50, np.random.default_rng(2))
     rng = random.Random(3)
     tried = refused = 0

@@ -132,6 +132,14 @@ def malformed(valid: bytes, i: int, r: random.Random) -> bytes:
     return valid.replace(b"0", b"-", r.randint(1, 3))
 
 
+def own_bus(name: str) -> tuple[Keys, Path, dict[str, str]]:
+    """A robot id of its own (``name`` and random hex, so that runs do not meet), a new temporary
+    folder, and the environment that puts the services started with it on that robot id."""
+    robot = name + uuid.uuid4().hex[:6]
+    tmp = Path(tempfile.mkdtemp(prefix=f"sofia-{name}-"))
+    return Keys(robot), tmp, dict(os.environ, SOFIA_ROBOT=robot, PYTHONUNBUFFERED="1")
+
+
 def start(name: str, args: list[str], env: dict[str, str], tmp: Path, ready: str) -> subprocess.Popen[bytes]:
     log = tmp / f"{name}.log"
     with open(log, "wb") as f:
@@ -202,10 +210,7 @@ def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--per-key", type=int, default=200)
     a = ap.parse_args()
-    robot = "fuzz" + uuid.uuid4().hex[:6]
-    keys = Keys(robot)
-    tmp = Path(tempfile.mkdtemp(prefix="sofia-fuzz-"))
-    env = dict(os.environ, SOFIA_ROBOT=robot, PYTHONUNBUFFERED="1")
+    keys, tmp, env = own_bus("fuzz")
     procs = {
         "detector": start("detector", ["detector", "serve"], env, tmp, "detector ready"),
         "calibrator": start(

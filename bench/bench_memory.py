@@ -15,18 +15,15 @@ import argparse
 import os
 import random
 import sys
-import tempfile
 import threading
 import time
-import uuid
-from pathlib import Path
 
 import numpy as np
 import zenoh
-from bench_fuzz import PeakRss, start
+from bench_fuzz import PeakRss, own_bus, start
 from sofia_runtime import zenoh_config
 from sofia_runtime.memory import rss_bytes
-from sofia_schemas import Keys, pointcloud
+from sofia_schemas import pointcloud
 
 OVERLOAD_S = 8.0
 SETTLE_S = 15.0
@@ -36,10 +33,7 @@ def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--rounds", type=int, default=4)
     a = ap.parse_args()
-    robot = "mem" + uuid.uuid4().hex[:6]
-    keys = Keys(robot)
-    tmp = Path(tempfile.mkdtemp(prefix="sofia-memory-"))
-    env = dict(os.environ, SOFIA_ROBOT=robot, PYTHONUNBUFFERED="1")
+    keys, tmp, env = own_bus("memory")
     det = start("detector", ["detector", "serve"], env, tmp, "detector ready")
     rng = np.random.default_rng(0)
     clouds = [

@@ -16,14 +16,16 @@ import uuid
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TypeVar
+from typing import Any, TypeVar
 
+import numpy as np
 import pytest
 import zenoh
 from pydantic import BaseModel
 from sofia_runtime import client, zenoh_config
 from sofia_runtime.zenoh_config import open_session
-from sofia_schemas.messages import ErrorReply
+from sofia_schemas.messages import CalibrationResult, ErrorReply
+from sofia_schemas.transforms import matrix_to_quat_xyzw
 
 REPO = Path(__file__).resolve().parents[1]
 SOFIA = str(Path(sys.executable).with_name("sofia"))
@@ -67,6 +69,20 @@ def reply_err(reply: zenoh.Reply) -> ErrorReply:
     """An error reply as its :class:`ErrorReply`; fails on an ok reply."""
     assert reply.err is not None, "expected an error reply"
     return ErrorReply.model_validate_json(reply.err.payload.to_bytes())
+
+
+def calibration_result(T_flange_cam: np.ndarray, stamp_ns: int = 7, **fields: Any) -> CalibrationResult:
+    """A passing calibrator result holding ``T_flange_cam`` (4, 4), flange -> camera optical frame,
+    metres; ``fields`` replace the others (``target_base``, ``camera_correction``, ...)."""
+    T = np.asarray(T_flange_cam, dtype=np.float64)
+    values: dict[str, Any] = dict(
+        stamp_ns=stamp_ns, matrix=T.tolist(), translation=tuple(T[:3, 3]),
+        quaternion_xyzw=tuple(matrix_to_quat_xyzw(T[:3, :3])), rpy=(0.0, 0.0, 0.0), target_base=(0.5, 0.0, 0.1),
+        spread_mm=(1.0, 1.0, 1.0), passes=True, n_samples=12, inliers=list(range(12)), outliers=[],
+        residuals_mm=[0.5] * 12, std_translation_mm=(0.1, 0.1, 0.1), std_rotation_deg=(0.01, 0.01, 0.01),
+        dissipation_after=0.1,
+    )  # fmt: skip
+    return CalibrationResult(**(values | fields))
 
 
 @pytest.fixture
@@ -201,6 +217,14 @@ class Collector:
     def on(self, key: str) -> list[Received]:
         with self._lock:
             return [s for s in self.samples if s.key == key]
+
+    def models(self, key: str, model: type[M]) -> list[M]:
+        """The JSON payloads on ``key`` so far, as ``model``."""
+        return [model.model_validate_json(s.payload) for s in self.on(key)]
+
+    def clear(self) -> None:
+        with self._lock:
+            self.samples.clear()
 
     def wait_for(self, key: str, n: int, timeout: float = 30.0) -> list[Received]:
         """Samples on ``key`` once there are ``n`` (or all there are after ``timeout``)."""

@@ -8,7 +8,7 @@ import os
 import threading
 import time
 import uuid
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -125,3 +125,19 @@ def arm(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Arm]:
         a_sim = getattr(locals().get("a"), "sim", sim)
         a_sim.stop()
         sim.stop()
+
+
+def start_cell(sofia_proc: Callable[..., Proc], env: dict[str, str], camera: list[str], arm: list[str],
+               detector: list[str]) -> list[Proc]:  # fmt: skip
+    """The simulated cell on one world file (``env``): camera, arm, detector and emulated gripper
+    services with these extra arguments, once camera, arm and detector are ready."""
+    procs = [
+        sofia_proc("camera", "serve", "--sim", "--sim-scene", "board", "--fps", "6", *camera, env=env),
+        sofia_proc("arm", "serve", "--sim", "--max-speed", "1.0", *arm, env=env),
+        sofia_proc("detector", "serve", *detector),
+        sofia_proc("gripper", "serve", "--emulate", env=env),
+    ]
+    procs[1].wait_for_log("connected to the robot", 120)
+    procs[0].wait_for_log("camera ready", 120)
+    procs[2].wait_for_log("detector ready", 120)
+    return procs

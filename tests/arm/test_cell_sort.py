@@ -19,6 +19,7 @@ from sofia_schemas.sim_world import ENV_SIM_WORLD, read_world
 from sofia_system.sort_step import ORDER, SORT_RGB, places
 
 from ..conftest import SOFIA, Proc
+from .conftest import start_cell
 
 
 @pytest.mark.slow
@@ -33,16 +34,8 @@ def test_sort_by_colour_leaves_the_distractor(
                                       capture_output=True, text=True, timeout=120, check=True).stdout)  # fmt: skip
     transform.write_text(json.dumps({"matrix": truth["T_flange_cam"]}))
     env = {ENV_SIM_WORLD: str(world_file)}
-    procs = [
-        sofia_proc("camera", "serve", "--sim", "--sim-scene", "board", "--sim-kind", "sort", "--sim-seed", "2",
-                   "--fps", "6", env=env),
-        sofia_proc("arm", "serve", "--sim", "--max-speed", "1.0", "--transform", str(transform), env=env),
-        sofia_proc("detector", "serve", "--transform", str(transform)),
-        sofia_proc("gripper", "serve", "--emulate", env=env),
-    ]  # fmt: skip
-    procs[1].wait_for_log("connected to the robot", 120)
-    procs[0].wait_for_log("camera ready", 120)
-    procs[2].wait_for_log("detector ready", 120)
+    start_cell(sofia_proc, env, ["--sim-kind", "sort", "--sim-seed", "2"], ["--transform", str(transform)],
+               ["--transform", str(transform)])  # fmt: skip
     before = read_world(world_file)
     assert before is not None and len(before.objects) == 4
     by_colour = places(Board.default())

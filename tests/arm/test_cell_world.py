@@ -20,6 +20,7 @@ from sofia_schemas.messages import ArmCommand, ArmResult
 from sofia_schemas.sim_world import ENV_SIM_WORLD, read_world
 
 from ..conftest import Proc
+from .conftest import start_cell
 
 # a board turned 10 degrees and moved left, a camera turned 100 degrees on the flange and tilted
 # 5 degrees, another seed for the object (the demo: the default board and mount, seed 0)
@@ -39,17 +40,9 @@ def test_survey_pick_place_and_the_object_seen_at_b(
     transform.write_text(json.dumps({"matrix": T_fc.tolist()}))
     env = {ENV_SIM_WORLD: str(world_file)}
     cam = " ".join(f"{v:.9f}" for v in (*CAM_T, *CAM_Q))
-    procs = [
-        sofia_proc("camera", "serve", "--sim", "--sim-scene", "board", "--sim-board", str(board_file),
-                   "--sim-T-flange-cam", cam, "--sim-seed", SEED, "--fps", "6", env=env),
-        sofia_proc("arm", "serve", "--sim", "--max-speed", "1.0", "--board", str(board_file), "--transform",
-                   str(transform), env=env),
-        sofia_proc("detector", "serve", "--board", str(board_file), "--transform", str(transform)),
-        sofia_proc("gripper", "serve", "--emulate", env=env),
-    ]  # fmt: skip
-    procs[1].wait_for_log("connected to the robot", 120)
-    procs[0].wait_for_log("camera ready", 120)
-    procs[2].wait_for_log("detector ready", 120)
+    board = ["--board", str(board_file), "--transform", str(transform)]
+    procs = start_cell(sofia_proc, env, ["--sim-board", str(board_file), "--sim-T-flange-cam", cam, "--sim-seed", SEED],
+                       board, board)  # fmt: skip
     world = read_world(world_file)
     assert world is not None and len(world.objects) == 1
     A = world.objects[0].centre()

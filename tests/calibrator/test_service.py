@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import json
 import sqlite3
-import threading
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -53,7 +52,7 @@ def wait_for(pred: Callable[[], bool], timeout: float = 40.0) -> None:
 
 
 def test_service_online_queries_errors_and_restart(
-    sofia_proc, session, robot_id: str, tmp_path: Path
+    sofia_proc, session, collect, robot_id: str, tmp_path: Path
 ) -> None:  # type: ignore[no-untyped-def]
     keys = Keys(robot_id)
     state = tmp_path / "state"
@@ -61,14 +60,11 @@ def test_service_online_queries_errors_and_restart(
     proc.wait_for_log("calibrator ready")
     wait_until_served(session, keys)
 
-    results: list[CalibrationResult] = []
-    lock = threading.Lock()
+    got = collect(keys.calibration_result)
 
-    def on_result(sample: zenoh.Sample) -> None:
-        with lock:
-            results.append(CalibrationResult.model_validate_json(sample.payload.to_bytes()))
+    def results() -> list[CalibrationResult]:
+        return got.models(keys.calibration_result, CalibrationResult)
 
-    sub = session.declare_subscriber(keys.calibration_result, on_result)
     time.sleep(0.5)
     pr = make_problem(8, np.random.default_rng(21))
     for k in range(8):
@@ -80,9 +76,9 @@ def test_service_online_queries_errors_and_restart(
     session.put(keys.blob, b"\x00\x01garbage")
     session.put(keys.flange_pose, b'{"stamp_ns": 1, "translation": [0, 0, "x"]}')
 
-    wait_for(lambda: bool(results) and results[-1].n_samples == 8)
+    wait_for(lambda: bool(results()) and results()[-1].n_samples == 8)
     proc.wait_for_log("the flange was moving", timeout=40)
-    last = results[-1]
+    last = results()[-1]
     assert np.abs(np.array(last.matrix) - pr.T_flange_cam).max() < 0.01
     assert last.passes and last.sample_ids == list(range(8))
     # the service solves as `sofia calibrate` does by default: noise and correction from the data
@@ -131,8 +127,7 @@ def test_service_online_queries_errors_and_restart(
     proc.kill()
     with sqlite3.connect(state / "samples.db") as db:  # 8 + add - remove, committed
         assert db.execute("SELECT COUNT(*) FROM samples").fetchone()[0] == 8
-    with lock:
-        results.clear()
+    got.clear()
     frames = ("--parent-frame", "tool_flange", "--child-frame", "d435_color_optical_frame")
     proc2 = sofia_proc("calibrator", "serve", "--state-dir", str(state), *frames)
     proc2.wait_for_log("calibrator ready")
@@ -157,7 +152,6 @@ def test_service_online_queries_errors_and_restart(
     assert ok and body["samples"] == []
     ok, body = query_json(session, keys.calibrator_op("result"))
     assert not ok and "no result yet" in body["message"]
-    sub.undeclare()
     assert proc2.stop() == 0
 
 

@@ -15,6 +15,7 @@ from sofia_camera.sim_scene import SimOptions, SimWorld
 from sofia_schemas import pointcloud
 from sofia_schemas.messages.calibration import CameraCorrection, correction_applied
 
+from ..conftest import calibration_result
 from .conftest import flange_above
 from .test_geometry import one_cloud
 
@@ -194,16 +195,11 @@ def _wait(condition, what: str, timeout: float = 10.0) -> None:  # type: ignore[
 
 def test_correction_follows_the_calibrators_results() -> None:
     from sofia_camera.correction import DepthCorrection
-    from sofia_schemas.messages import CalibrationResult
 
     def result(stamp: int, correction: CameraCorrection) -> bytes:
-        T = np.eye(4)
-        return CalibrationResult(
-            stamp_ns=stamp, matrix=T.tolist(), translation=(0.0, 0.0, 0.0), quaternion_xyzw=(0.0, 0.0, 0.0, 1.0),
-            rpy=(0.0, 0.0, 0.0), target_base=(0.5, 0.0, 0.0), spread_mm=(1.0, 1.0, 1.0), passes=True, n_samples=12,
-            inliers=list(range(12)), outliers=[], residuals_mm=[0.5] * 12, std_translation_mm=(0.1, 0.1, 0.1),
-            std_rotation_deg=(0.01, 0.01, 0.01), dissipation_after=0.1, camera_correction=correction,
-        ).to_json_bytes()  # fmt: skip
+        return calibration_result(
+            np.eye(4), stamp, target_base=(0.5, 0.0, 0.0), camera_correction=correction
+        ).to_json_bytes()
 
     corr = DepthCorrection()
     corr.on_result(

@@ -14,8 +14,17 @@ from sofia_replay.synth.realism import make_real_frame
 from sofia_runtime import client
 from sofia_schemas import Board, pointcloud
 from sofia_schemas.keys import ENCODING_CDR_POINTCLOUD2, ENCODING_JSON, Keys
-from sofia_schemas.messages import Detection, ErrorReply, FlangePose, PickTarget, ServiceStatus
+from sofia_schemas.messages import (
+    CalibrationResult,
+    Detection,
+    ErrorReply,
+    FlangePose,
+    PickTarget,
+    ServiceStatus,
+)
 from sofia_schemas.rosmsg import encode_flange_pose
+
+from ..conftest import calibration_result
 
 STAMP_NS = 1_700_000_123_000_000_000
 BLOCK = zenoh.CongestionControl.BLOCK  # clouds of 4 MB: Zenoh must not drop them under load
@@ -251,16 +260,6 @@ def test_a_result_published_before_the_detector_started_is_used(sofia_proc, robo
         queryable.undeclare()
 
 
-def _calibration_result(stamp_ns: int):  # type: ignore[no-untyped-def]
+def _calibration_result(stamp_ns: int) -> CalibrationResult:
     """A calibrator result holding the synthetic recordings' true T_flange_cam."""
-    from sofia_schemas.messages import CalibrationResult
-    from sofia_schemas.transforms import matrix_to_quat_xyzw
-
-    T = DEFAULT_T_FLANGE_CAM
-    return CalibrationResult(
-        stamp_ns=stamp_ns, matrix=T.tolist(), translation=tuple(T[:3, 3]),  # type: ignore[arg-type]
-        quaternion_xyzw=tuple(matrix_to_quat_xyzw(T[:3, :3])),  # type: ignore[arg-type]
-        rpy=(0.0, 0.0, 0.0), target_base=(0.5, 0.0, 0.0), spread_mm=(1.0, 1.0, 1.0), passes=True,
-        n_samples=12, inliers=list(range(12)), outliers=[], residuals_mm=[0.5] * 12,
-        std_translation_mm=(0.1, 0.1, 0.1), std_rotation_deg=(0.01, 0.01, 0.01), dissipation_after=0.1,
-    )  # fmt: skip
+    return calibration_result(DEFAULT_T_FLANGE_CAM, stamp_ns, target_base=(0.5, 0.0, 0.0))

@@ -4,7 +4,9 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from pathlib import Path
+from typing import Any
 
 import pytest
 from dynamixel_sdk import PortHandler
@@ -49,6 +51,27 @@ def emulator_p1(tmp_path: Path) -> Iterator[Emulator]:
         yield emu
 
 
+@contextmanager
+def connected(config: GripperConfig, **kwargs: Any) -> Iterator[Gripper]:
+    """A started :class:`Gripper` once it is connected; closed on leaving."""
+    g = Gripper(config, **kwargs)
+    g.start()
+    try:
+        wait_until(lambda: g.state.connected, 3.0, "gripper connected")
+        yield g
+    finally:
+        g.close()
+
+
+@pytest.fixture
+def overloaded_p1(emulator_p1: Emulator) -> Iterator[Gripper]:
+    """A Protocol 1.0 gripper, connected, then in the error state of an overload of its servo."""
+    with connected(make_config(emulator_p1.path, protocol=1)) as g:
+        emulator_p1.inject_overload()
+        wait_until(lambda: g.state.status == "error", 2.0, "P1 error state")
+        yield g
+
+
 class StateLog:
     def __init__(self) -> None:
         self.states: list[GripperState] = []
@@ -59,8 +82,5 @@ class StateLog:
 
 @pytest.fixture
 def gripper(emulator: Emulator) -> Iterator[Gripper]:
-    g = Gripper(make_config(emulator.path), on_state=StateLog())
-    g.start()
-    wait_until(lambda: g.state.connected, 3.0, "gripper connected")
-    yield g
-    g.close()
+    with connected(make_config(emulator.path), on_state=StateLog()) as g:
+        yield g

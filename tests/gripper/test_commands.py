@@ -9,7 +9,7 @@ import pytest
 from sofia_gripper import Emulator, Gripper
 from sofia_schemas.messages import GripperCommand as Cmd
 
-from .conftest import make_config, wait_until
+from .conftest import connected, make_config
 
 
 def test_start_up_configures_the_servo(gripper: Gripper, emulator: Emulator) -> None:
@@ -103,10 +103,7 @@ def test_state_loop_rate_and_freshness(gripper: Gripper) -> None:
 
 def test_protocol1_gripper(emulator_p1: Emulator) -> None:
     emulator_p1.set_object(30.0)
-    g = Gripper(make_config(emulator_p1.path, protocol=1))
-    g.start()
-    try:
-        wait_until(lambda: g.state.connected, 3.0, "P1 gripper connected")
+    with connected(make_config(emulator_p1.path, protocol=1)) as g:
         r = g.execute(Cmd(action="grasp", current_ma=400))
         assert r.ok and r.grasped and r.opening_mm == pytest.approx(30.0, abs=2.0)
         assert emulator_p1.servo.get("torque_limit") == round(400 / 4100 * 1023)
@@ -114,8 +111,6 @@ def test_protocol1_gripper(emulator_p1: Emulator) -> None:
         assert r.ok and r.opening_mm == pytest.approx(100.0, abs=1.0)
         emulator_p1.set_object(None)
         assert g.execute(Cmd(action="close")).reason == "done"
-    finally:
-        g.close()
 
 
 def test_open_blocked_by_something_fails_with_the_reason(gripper: Gripper, emulator: Emulator) -> None:

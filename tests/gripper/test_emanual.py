@@ -16,7 +16,7 @@ from sofia_gripper import Emulator, Gripper, GripperError, NotReady
 from sofia_gripper.control_table import WATCHDOG_TRIPPED
 from sofia_schemas.messages import GripperCommand as Cmd
 
-from .conftest import make_config, wait_until
+from .conftest import connected, make_config, wait_until
 
 P2_ERR_DATA_RANGE, P2_ERR_DATA_LENGTH, P2_ERR_LIMIT = 4, 5, 6
 
@@ -120,25 +120,20 @@ def test_moving_stays_set_while_the_profile_runs_and_the_grasp_reports_on_the_st
 # --- Protocol 1.0 Alarm Shutdown / Torque Limit(34) ----------------------------------------------
 
 
-def test_protocol1_shutdown_sets_torque_limit_to_zero_and_torque_on_recovers(emulator_p1: Emulator) -> None:
+def test_protocol1_shutdown_sets_torque_limit_to_zero_and_torque_on_recovers(
+    emulator_p1: Emulator, overloaded_p1: Gripper
+) -> None:
     """MX-64AR/AT "Alarm Shutdown": the output becomes 0 % by setting Torque Limit(34) to 0; the
     servo is usable again once it is written non-zero."""
-    g = Gripper(make_config(emulator_p1.path, protocol=1))
-    g.start()
-    try:
-        wait_until(lambda: g.state.connected, 3.0, "connected")
-        emulator_p1.inject_overload()
-        wait_until(lambda: g.state.status == "error", 2.0, "error state")
-        assert emulator_p1.servo.get("torque_limit") == 0 and emulator_p1.servo.get("torque_enable") == 1
-        assert "torque on" in (g.state.error or "") and "reboot" not in (g.state.error or "")
-        with pytest.raises(NotReady, match="overload"):
-            g.execute(Cmd(action="close"))
-        assert g.execute(Cmd(action="torque", enable=True)).ok
-        assert emulator_p1.servo.get("torque_limit") > 0
-        wait_until(lambda: g.state.status == "ok", 2.0, "ok after torque on")
-        assert g.execute(Cmd(action="close")).ok
-    finally:
-        g.close()
+    g = overloaded_p1
+    assert emulator_p1.servo.get("torque_limit") == 0 and emulator_p1.servo.get("torque_enable") == 1
+    assert "torque on" in (g.state.error or "") and "reboot" not in (g.state.error or "")
+    with pytest.raises(NotReady, match="overload"):
+        g.execute(Cmd(action="close"))
+    assert g.execute(Cmd(action="torque", enable=True)).ok
+    assert emulator_p1.servo.get("torque_limit") > 0
+    wait_until(lambda: g.state.status == "ok", 2.0, "ok after torque on")
+    assert g.execute(Cmd(action="close")).ok
 
 
 # --- Min/Max Position Limit(48, 52) ----------------------------------------------------------------
@@ -160,16 +155,11 @@ def test_current_based_position_mode_ignores_position_limits(emulator: Emulator,
 
 def test_driver_clamps_to_the_calibrated_range_whatever_the_servo_limits(emulator: Emulator) -> None:
     emulator.servo.set("max_position_limit", 1500)  # would exclude the calibrated range in mode 3
-    g = Gripper(make_config(emulator.path))
-    g.start()
-    try:
-        wait_until(lambda: g.state.connected, 3.0, "connected despite the servo's limits")
+    with connected(make_config(emulator.path)) as g:
         assert g.servo.limits == (g.config.open_ticks, g.config.closed_ticks)
         assert (
             g.servo.set_goal(10_000) == g.config.closed_ticks and g.servo.set_goal(-5) == g.config.open_ticks
         )
-    finally:
-        g.close()
 
 
 def test_protocol1_angle_limits_excluding_the_range_are_named(emulator_p1: Emulator) -> None:

@@ -12,7 +12,7 @@ from sofia_gripper.errors import CommFailed
 from sofia_gripper.service import EMULATED_REPLY_MARGIN_MS
 from sofia_schemas.messages import GripperCommand as Cmd
 
-from .conftest import BAUD, make_config, wait_until
+from .conftest import BAUD, connected, make_config, wait_until
 
 
 @pytest.mark.parametrize(
@@ -93,13 +93,8 @@ def test_bus_watchdog_stops_the_motor_when_the_driver_dies(emulator: Emulator) -
     p0 = snap["position"]
     time.sleep(0.2)
     assert abs(emulator.snapshot()["position"] - p0) < 1 and p0 < g.config.closed_ticks - 100
-    g2 = Gripper(make_config(emulator.path))  # a restarted service clears the watchdog and resumes
-    g2.start()
-    try:
-        wait_until(lambda: g2.state.connected, 3.0, "reconnected")
+    with connected(make_config(emulator.path)) as g2:  # a restarted service clears the watchdog and resumes
         assert emulator.servo.get("bus_watchdog") == 10 and g2.execute(Cmd(action="open")).ok
-    finally:
-        g2.close()
 
 
 def test_start_up_without_a_servo_keeps_retrying(tmp_path) -> None:  # type: ignore[no-untyped-def]
@@ -129,23 +124,16 @@ def test_wrong_model_is_refused(emulator: Emulator) -> None:
         g.close()
 
 
-def test_protocol1_overload_is_reported_and_torque_on_rearms(emulator_p1: Emulator) -> None:
-    g = Gripper(make_config(emulator_p1.path, protocol=1))
-    g.start()
-    try:
-        wait_until(lambda: g.state.connected, 3.0, "P1 connected")
-        emulator_p1.inject_overload()
-        wait_until(lambda: g.state.status == "error", 2.0, "P1 error state")
-        assert g.state.hardware_error == ["overload"] and "send torque on" in (g.state.error or "")
-        with pytest.raises(NotReady, match="overload"):
-            g.execute(Cmd(action="open"))
-        with pytest.raises(GripperError, match="no Reboot instruction"):
-            g.execute(Cmd(action="reboot"))
-        assert g.execute(Cmd(action="torque", enable=True)).ok
-        wait_until(lambda: g.state.status == "ok", 2.0, "P1 re-armed")
-        assert g.execute(Cmd(action="close")).ok
-    finally:
-        g.close()
+def test_protocol1_overload_is_reported_and_torque_on_rearms(overloaded_p1: Gripper) -> None:
+    g = overloaded_p1
+    assert g.state.hardware_error == ["overload"] and "send torque on" in (g.state.error or "")
+    with pytest.raises(NotReady, match="overload"):
+        g.execute(Cmd(action="open"))
+    with pytest.raises(GripperError, match="no Reboot instruction"):
+        g.execute(Cmd(action="reboot"))
+    assert g.execute(Cmd(action="torque", enable=True)).ok
+    wait_until(lambda: g.state.status == "ok", 2.0, "P1 re-armed")
+    assert g.execute(Cmd(action="close")).ok
 
 
 def test_a_late_servo_is_waited_for_with_the_reply_margin(

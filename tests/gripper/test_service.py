@@ -6,7 +6,6 @@ import json
 import os
 import signal
 import subprocess
-import threading
 import time
 from collections.abc import Callable
 
@@ -15,7 +14,7 @@ import zenoh
 from sofia_schemas.keys import ENCODING_JSON, Keys
 from sofia_schemas.messages import GripperResult, GripperState, ServiceStatus
 
-from ..conftest import SOFIA, Proc, first_reply, reply_err, reply_ok
+from ..conftest import SOFIA, Collector, Proc, first_reply, reply_err, reply_ok
 
 
 def query(session: zenoh.Session, key: str, payload: bytes) -> zenoh.Reply:
@@ -33,24 +32,17 @@ def service(sofia_proc: Callable[..., Proc]) -> Proc:
     return proc
 
 
-def test_service_over_zenoh(service: Proc, session: zenoh.Session, robot_id: str) -> None:
+def test_service_over_zenoh(
+    service: Proc, session: zenoh.Session, collect: Callable[[str], Collector], robot_id: str
+) -> None:
     keys = Keys(robot_id)
-    states: list[GripperState] = []
-    lock = threading.Lock()
-
-    def on_state(sample: zenoh.Sample) -> None:
-        with lock:
-            states.append(GripperState.model_validate_json(sample.payload.to_bytes()))
-
-    sub = session.declare_subscriber(keys.gripper_state, on_state)
+    got = collect(keys.gripper_state)
     r = ok(query(session, keys.gripper_command, b'{"action": "grasp", "force_n": 10}'))
     assert r.ok and r.grasped and r.opening_mm == pytest.approx(40.0, abs=2.0)
     time.sleep(0.3)
-    with lock:
-        n0 = len(states)
+    n0 = len(got.on(keys.gripper_state))
     time.sleep(2.0)
-    with lock:
-        recent = states[n0:]
+    recent = got.models(keys.gripper_state, GripperState)[n0:]
     assert len(recent) >= 100, f"{len(recent)} states in 2 s"  # >= 50 Hz
     assert all(s.connected and s.grasped for s in recent)
 
@@ -66,7 +58,6 @@ def test_service_over_zenoh(service: Proc, session: zenoh.Session, robot_id: str
         query(session, keys.status("gripper"), b"").ok.payload.to_bytes()
     )  # type: ignore[union-attr]
     assert status.service == "gripper" and status.state == "ok" and status.counters["command_errors"] == 3
-    sub.undeclare()
     assert service.stop() == 0
 
 

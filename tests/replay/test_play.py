@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import time
 from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -78,6 +79,29 @@ def recording(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, dict[str,
     return path, written
 
 
+@dataclass
+class Play:
+    """The recording, its bytes per topic, the test's keys, a subscriber factory and ``run(*args)``:
+    ``sofia replay play RECORDING *args`` as a process."""
+
+    path: Path
+    written: dict[str, list[bytes]]
+    keys: Keys
+    collect: Callable[[str], Any]
+    sofia_proc: Callable[..., Any]
+
+    def run(self, *args: str) -> Any:
+        return self.sofia_proc("replay", "play", str(self.path), *args)
+
+
+@pytest.fixture
+def play(
+    recording: tuple[Path, dict[str, list[bytes]]], sofia_proc: Callable[..., Any],
+    collect: Callable[[str], Any], robot_id: str,
+) -> Play:  # fmt: skip
+    return Play(*recording, Keys(robot_id), collect, sofia_proc)
+
+
 def _statuses(samples: list[Any]) -> list[ServiceStatus]:
     return [ServiceStatus.model_validate_json(s.payload) for s in samples]
 
@@ -90,14 +114,10 @@ def test_default_key_map() -> None:
     assert encoding_of(POSE) == "application/cdr;geometry_msgs/msg/PoseStamped"
 
 
-def test_every_message_received_intact(
-    recording: tuple[Path, dict[str, list[bytes]]], sofia_proc: Callable[..., Any],
-    collect: Callable[[str], Any], robot_id: str,
-) -> None:  # fmt: skip
-    path, written = recording
-    keys = Keys(robot_id)
-    got = collect(keys.all)
-    proc = sofia_proc("replay", "play", str(path), "--fast", "--wait-subscribers", "20")
+def test_every_message_received_intact(play: Play) -> None:
+    written, keys = play.written, play.keys
+    got = play.collect(keys.all)
+    proc = play.run("--fast", "--wait-subscribers", "20")
     assert proc.popen.wait(60) == 0, proc.log()
 
     expected = {
@@ -105,7 +125,7 @@ def test_every_message_received_intact(
         keys.camera_points: (written[TOPIC_CAMERA_POINTS], ENCODING_CDR_POINTCLOUD2),
         keys.flange_pose: (written[TOPIC_FLANGE_POSE], ENCODING_CDR_TRANSFORM),
         keys.blob: (written[TOPIC_BLOB], ENCODING_CDR_POINT),
-        f"sofia/{robot_id}/replay/extra/goal": (written["/extra/goal"], "application/cdr;" + POSE),
+        f"{keys.prefix}/replay/extra/goal": (written["/extra/goal"], "application/cdr;" + POSE),
     }
     for key, (payloads, encoding) in expected.items():
         received = got.wait_for(key, len(payloads), timeout=10)
@@ -124,28 +144,25 @@ def test_every_message_received_intact(
     assert "replay done" in proc.log()
 
 
-def test_recorded_rate_window_and_mapping(
-    recording: tuple[Path, dict[str, list[bytes]]], sofia_proc: Callable[..., Any],
-    collect: Callable[[str], Any], robot_id: str,
-) -> None:  # fmt: skip
+def test_recorded_rate_window_and_mapping(play: Play) -> None:
     """--rate 0.5 over clouds 2..5 of the recording (--start/--end), remapped to another key and
     restamped: the stamps are the publish times, so the pacing is the player's, not the delivery's
     (the first sample of a new publisher can arrive tens of ms late on a loaded machine)."""
-    path, written = recording
-    key = f"sofia/{robot_id}/custom/cloud"
-    got = collect(f"sofia/{robot_id}/**")
+    keys = play.keys
+    key = f"{keys.prefix}/custom/cloud"
+    got = play.collect(keys.all)
     launched_ns = time.time_ns()
-    proc = sofia_proc(
-        "replay", "play", str(path), "--rate", "0.5", "--start", "0.1", "--end", "0.26", "--restamp",
+    proc = play.run(
+        "--rate", "0.5", "--start", "0.1", "--end", "0.26", "--restamp",
         "--topic", TOPIC_POINTS, "--map", f"{TOPIC_POINTS}={key}", "--wait-subscribers", "20",
     )  # fmt: skip
     assert proc.popen.wait(60) == 0, proc.log()
     received = got.wait_for(key, 4, timeout=5)
     published_ns = np.array([stamp_ns(r.payload) for r in received])
     assert [r.payload for r in received] == [
-        restamp(w, t) for w, t in zip(written[TOPIC_POINTS][2:6], published_ns, strict=True)
+        restamp(w, t) for w, t in zip(play.written[TOPIC_POINTS][2:6], published_ns, strict=True)
     ]  # only the stamps rewritten
-    assert got.on(Keys(robot_id).points) == [] and got.on(Keys(robot_id).flange_pose) == []
+    assert got.on(keys.points) == [] and got.on(keys.flange_pose) == []
     assert launched_ns < published_ns[0] <= time.time_ns()
     # 3 periods of 50 ms at half speed: 0.1 s apart (1.0 would give 0.05). One late put shortens one
     # gap and lengthens the next; the first put also creates the shared-memory pool (a few ms)
@@ -154,36 +171,28 @@ def test_recorded_rate_window_and_mapping(
     assert 0.25 <= (published_ns[-1] - published_ns[0]) / 1e9 < 2.0, gaps_s
 
 
-def test_loop_until_stopped(
-    recording: tuple[Path, dict[str, list[bytes]]], sofia_proc: Callable[..., Any],
-    collect: Callable[[str], Any], robot_id: str,
-) -> None:  # fmt: skip
-    path, written = recording
-    keys = Keys(robot_id)
-    got = collect(keys.all)
-    proc = sofia_proc("replay", "play", str(path), "--rate", "4", "--loop", "--no-restamp", "--topic",
-                      TOPIC_FLANGE_POSE, "--wait-subscribers", "20")  # fmt: skip
+def test_loop_until_stopped(play: Play) -> None:
+    keys = play.keys
+    got = play.collect(keys.all)
+    proc = play.run(
+        "--rate", "4", "--loop", "--no-restamp", "--topic", TOPIC_FLANGE_POSE, "--wait-subscribers", "20"
+    )
     received = got.wait_for(keys.flange_pose, 2 * N + 1, timeout=30)
     assert proc.stop() == 0
     assert len(received) >= 2 * N + 1
-    assert [r.payload for r in received[: 2 * N]] == written[TOPIC_FLANGE_POSE] * 2
+    assert [r.payload for r in received[: 2 * N]] == play.written[TOPIC_FLANGE_POSE] * 2
     assert "stopped" in proc.log()
     time.sleep(0.2)
     last = _statuses(got.on(keys.status("replay")))[-1]
     assert last.state == "stopping" and last.counters["loops"] >= 2
 
 
-def test_loop_keeps_the_frame_period_across_the_wrap(
-    recording: tuple[Path, dict[str, list[bytes]]], sofia_proc: Callable[..., Any],
-    collect: Callable[[str], Any], robot_id: str,
-) -> None:  # fmt: skip
+def test_loop_keeps_the_frame_period_across_the_wrap(play: Play) -> None:
     """A loop's first message follows the previous loop's last by one period (100 ms at --rate 0.5),
     not at once: two clouds in a burst would make a detector with backlog 1 drop one."""
-    path, _ = recording
-    keys = Keys(robot_id)
-    got = collect(keys.flange_pose)
-    proc = sofia_proc("replay", "play", str(path), "--rate", "0.5", "--loop", "--topic", TOPIC_FLANGE_POSE,
-                      "--wait-subscribers", "20")  # fmt: skip
+    keys = play.keys
+    got = play.collect(keys.flange_pose)
+    proc = play.run("--rate", "0.5", "--loop", "--topic", TOPIC_FLANGE_POSE, "--wait-subscribers", "20")
     received = got.wait_for(keys.flange_pose, N + 2, timeout=30)
     assert proc.stop() == 0
     gaps = np.diff([r.t for r in received[: N + 2]])
@@ -292,18 +301,13 @@ def test_restamp_rewrites_only_the_header_stamp() -> None:
         restamp(b"\x00\x00\x00\x00" + cdr[4:], 0)
 
 
-def test_status_query_and_restamped_loop(
-    recording: tuple[Path, dict[str, list[bytes]]], sofia_proc: Callable[..., Any],
-    collect: Callable[[str], Any], robot_id: str,
-) -> None:  # fmt: skip
+def test_status_query_and_restamped_loop(play: Play) -> None:
     """`sofia health replay` answers while playing; --restamp gives every loop fresh stamps."""
-    path, _ = recording
-    keys = Keys(robot_id)
-    got = collect(keys.flange_pose)
-    sofia_proc("replay", "play", str(path), "--rate", "4", "--loop", "--restamp", "--topic", TOPIC_FLANGE_POSE,
-               "--wait-subscribers", "20")  # fmt: skip
+    keys = play.keys
+    got = play.collect(keys.flange_pose)
+    play.run("--rate", "4", "--loop", "--restamp", "--topic", TOPIC_FLANGE_POSE, "--wait-subscribers", "20")
     received = got.wait_for(keys.flange_pose, 2 * N, timeout=30)
-    health = sofia_proc("health", "replay")
+    health = play.sofia_proc("health", "replay")
     assert health.popen.wait(30) == 0, health.log()
     assert "replay: ok" in health.log()
     stamps = [stamp_ns(r.payload) for r in received]

@@ -15,22 +15,15 @@ from sofia_runtime.zenoh_config import ZenohOptions, zenoh_config
 from sofia_schemas.keys import ENCODING_JSON, Keys
 from sofia_schemas.messages import CalibrationResult
 from sofia_schemas.ros2 import convert as cv
-from sofia_schemas.transforms import matrix_to_quat_xyzw
 
-from ..conftest import Collector
+from ..conftest import Collector, calibration_result
 
 
 def _calibration(stamp_ns: int) -> CalibrationResult:
     T_flange_cam = np.array(
         [[0.0, -1.0, 0.0, 0.065], [1.0, 0.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.045], [0, 0, 0, 1.0]]
     )
-    return CalibrationResult(
-        stamp_ns=stamp_ns, matrix=T_flange_cam.tolist(), translation=tuple(T_flange_cam[:3, 3]),  # type: ignore[arg-type]
-        quaternion_xyzw=tuple(matrix_to_quat_xyzw(T_flange_cam[:3, :3])),  # type: ignore[arg-type]
-        rpy=(0.0, 0.0, 0.0), target_base=(0.5, 0.0, 0.1), spread_mm=(1.0, 1.0, 1.0), passes=True,
-        n_samples=12, inliers=list(range(12)), outliers=[], residuals_mm=[0.5] * 12,
-        std_translation_mm=(0.1, 0.1, 0.1), std_rotation_deg=(0.01, 0.01, 0.01), dissipation_after=0.1,
-    )  # fmt: skip
+    return calibration_result(T_flange_cam, stamp_ns)
 
 
 def _wait(collector: Collector, n: int, timeout: float) -> None:

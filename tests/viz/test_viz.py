@@ -20,9 +20,10 @@ from sofia_schemas.messages import CalibrationResult, DetectedObject, Detection,
 from sofia_schemas.ros2 import convert as cv
 from sofia_schemas.ros2.typesupport import decode
 from sofia_schemas.rosmsg import encode_flange_pose
-from sofia_schemas.transforms import matrix_to_quat_xyzw
 from websockets.exceptions import InvalidStatus
 from websockets.sync.client import connect
+
+from ..conftest import calibration_result
 
 DEFAULT_T_FLANGE_CAM = np.array(
     [[0.0, -1.0, 0.0, 0.065], [1.0, 0.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.045], [0, 0, 0, 1.0]]
@@ -31,14 +32,7 @@ WANTED = ("/sofia/points", "/sofia/detections", "/tf", "/tf_static", "/sofia/sce
 
 
 def _calibration() -> CalibrationResult:
-    T = DEFAULT_T_FLANGE_CAM
-    return CalibrationResult(
-        stamp_ns=7, matrix=T.tolist(), translation=tuple(T[:3, 3]),  # type: ignore[arg-type]
-        quaternion_xyzw=tuple(matrix_to_quat_xyzw(T[:3, :3])),  # type: ignore[arg-type]
-        rpy=(0.0, 0.0, 0.0), target_base=(0.5, 0.0, 0.1), spread_mm=(1.0, 1.0, 1.0), passes=True,
-        n_samples=12, inliers=list(range(12)), outliers=[], residuals_mm=[0.5] * 12,
-        std_translation_mm=(0.1, 0.1, 0.1), std_rotation_deg=(0.01, 0.01, 0.01), dissipation_after=0.1,
-    )  # fmt: skip
+    return calibration_result(DEFAULT_T_FLANGE_CAM)
 
 
 def test_foxglove_client_gets_channels_and_decodes(sofia_proc, robot_id: str) -> None:  # type: ignore[no-untyped-def]
@@ -60,9 +54,8 @@ def test_foxglove_client_gets_channels_and_decodes(sofia_proc, robot_id: str) ->
         assert (
             channels["/tf"]["schemaName"] == channels["/tf_static"]["schemaName"] == "tf2_msgs/msg/TFMessage"
         )
-        by_sub = {i: topic for i, topic in enumerate(WANTED)}
         ws.send(json.dumps({"op": "subscribe", "subscriptions": [
-            {"id": i, "channelId": channels[t]["id"]} for i, t in by_sub.items()]}))  # fmt: skip
+            {"id": i, "channelId": channels[t]["id"]} for i, t in enumerate(WANTED)]}))  # fmt: skip
         time.sleep(0.5)
         got: dict[str, bytes] = {}
         deadline = time.monotonic() + 30
@@ -71,15 +64,7 @@ def test_foxglove_client_gets_channels_and_decodes(sofia_proc, robot_id: str) ->
             session.put(keys.detections, det.to_json_bytes(), encoding=ENCODING_JSON)
             session.put(keys.flange_pose, encode_flange_pose(flange))
             session.put(keys.calibration_result, _calibration().to_json_bytes(), encoding=ENCODING_JSON)
-            end = time.monotonic() + 0.5
-            while time.monotonic() < end:
-                try:
-                    msg = ws.recv(timeout=0.2)
-                except TimeoutError:
-                    continue
-                if isinstance(msg, bytes) and msg[0] == 1:
-                    sub_id, _log_time = struct.unpack_from("<IQ", msg, 1)
-                    got.setdefault(by_sub[sub_id], msg[13:])
+            _receive(ws, WANTED, got, 0.5)
     assert set(got) == set(WANTED), sorted(got)
     points = pointcloud.decode(got["/sofia/points"])
     assert points.frame_id == "panda_link0" and np.allclose(
@@ -97,6 +82,20 @@ def test_foxglove_client_gets_channels_and_decodes(sofia_proc, robot_id: str) ->
     assert np.isclose(static.transform.translation.x, DEFAULT_T_FLANGE_CAM[0, 3])
     assert len(got["/sofia/scene"]) > 0
     assert proc.stop() == 0 and "Traceback" not in proc.log()
+
+
+def _receive(ws: Any, topics: tuple[str, ...], got: dict[str, bytes], seconds: float) -> None:
+    """Read Foxglove message-data frames for up to ``seconds``: the first payload of each subscription
+    id ``i`` (subscribed as ``topics[i]``) goes to ``got[topics[i]]``."""
+    end = time.monotonic() + seconds
+    while len(got) < len(topics) and time.monotonic() < end:
+        try:
+            msg = ws.recv(timeout=0.2)
+        except TimeoutError:
+            continue
+        if isinstance(msg, bytes) and msg[0] == 1:
+            sub_id, _log_time = struct.unpack_from("<IQ", msg, 1)
+            got.setdefault(topics[sub_id], msg[13:])
 
 
 def _advertised(ws: Any, topics: tuple[str, ...]) -> dict[str, dict[str, Any]]:
@@ -136,15 +135,7 @@ def test_clients_of_either_subprotocol_joining_after_the_calibration_get_tf_stat
             ws.send(json.dumps({"op": "subscribe", "subscriptions": [
                 {"id": i, "channelId": channels[t]["id"]} for i, t in enumerate(latched)]}))  # fmt: skip
             got: dict[str, bytes] = {}
-            t0 = time.monotonic()
-            while len(got) < len(latched) and time.monotonic() - t0 < 3.0:
-                try:
-                    msg = ws.recv(timeout=0.2)
-                except TimeoutError:
-                    continue
-                if isinstance(msg, bytes) and msg[0] == 1:
-                    sub_id, _log_time = struct.unpack_from("<IQ", msg, 1)
-                    got.setdefault(latched[sub_id], msg[13:])
+            _receive(ws, latched, got, 3.0)
             assert set(got) == set(latched), (sorted(got), proc.log()[-1500:])
             static = decode(got["/tf_static"], cv.TF_MESSAGE).transforms[0]
             assert (static.header.frame_id, static.child_frame_id) == (

@@ -108,19 +108,11 @@ def _play(args: argparse.Namespace) -> int:
     from .player import Player, PlayOptions
 
     options = PlayOptions(
-        rate=args.rate,
-        fast=args.fast,
-        loop=args.loop,
-        start_s=args.start,
-        end_s=args.end,
-        topic_map=parse_topic_map(args.map),
-        topics=args.topic,
-        congestion=args.congestion,
-        wait_subscribers_s=args.wait_subscribers,
-        progress_period_s=args.progress,
-        restamp=args.loop if args.restamp is None else args.restamp,
-        preload=args.preload,
-    )
+        rate=args.rate, fast=args.fast, loop=args.loop, start_s=args.start, end_s=args.end,
+        topic_map=parse_topic_map(args.map), topics=args.topic, congestion=args.congestion,
+        wait_subscribers_s=args.wait_subscribers, progress_period_s=args.progress,
+        restamp=args.loop if args.restamp is None else args.restamp, preload=args.preload,
+    )  # fmt: skip
     robot = args.robot or default_robot()
     stop = StopFlag()
     with open_session(ZenohOptions.from_args(args)) as session:

@@ -61,13 +61,8 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
                    help="seconds to wait for the status (default 5)")  # fmt: skip
     add_zenoh_args(p)
 
-    p = add_command(
-        sub,
-        "router",
-        router,
-        "run a Zenoh router (what `sofia up` starts)",
-        description="A Zenoh router on its own, until Ctrl-C; --listen sets where it listens.",
-    )
+    p = add_command(sub, "router", router, "run a Zenoh router (what `sofia up` starts)",
+                    description="A Zenoh router on its own, until Ctrl-C; --listen sets where it listens.")  # fmt: skip
     add_zenoh_args(p)
     for action in p._actions:  # a router is always in router mode: the option is not offered
         if action.dest == "zenoh_mode":

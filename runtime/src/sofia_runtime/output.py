@@ -45,6 +45,21 @@ def add_command(sub: SubParsers, name: str, func: Callable[[argparse.Namespace],
     return parser
 
 
+def float_arg(what: str, ok: Callable[[float], bool]) -> Callable[[str], float]:
+    """An argparse ``type``: a number that ``ok`` accepts, else the error "TEXT is not ``what``"."""
+
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+        if not ok(value):
+            raise argparse.ArgumentTypeError(f"{text} is not {what}")
+        return value
+
+    return parse
+
+
 def jsonable(value: Any) -> Any:
     """``value`` with pydantic messages, paths and numpy values turned into plain JSON types."""
     if isinstance(value, BaseModel):

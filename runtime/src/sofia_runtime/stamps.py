@@ -55,16 +55,14 @@ class StampCheck:
         now = self.clock()
         if stamp_ns > now + self.future_tolerance_ns:
             self._count("future_stamps")
-            raise StampRefused(
-                what,
-                stamp_ns,
-                f"{_seconds(stamp_ns - now)} s in the future (tolerance {self.future_tolerance_ns / 1e9:g} s)",
+            ahead = (
+                f"{_seconds(stamp_ns - now)} s in the future (tolerance {self.future_tolerance_ns / 1e9:g} s)"
             )
+            raise StampRefused(what, stamp_ns, ahead)
         if since_start and stamp_ns < self.start_ns:
             self._count("stamps_before_start")
-            raise StampRefused(
-                what, stamp_ns, f"{_seconds(self.start_ns - stamp_ns)} s before this service started"
-            )
+            before = f"{_seconds(self.start_ns - stamp_ns)} s before this service started"
+            raise StampRefused(what, stamp_ns, before)
         return stamp_ns
 
     def _count(self, name: str) -> None:

@@ -120,12 +120,8 @@ class ZenohOptions:
 
     @classmethod
     def from_args(cls, args: argparse.Namespace) -> ZenohOptions:
-        return cls(
-            mode=getattr(args, "zenoh_mode", None),
-            connect=list(getattr(args, "connect", None) or []),
-            listen=list(getattr(args, "listen", None) or []),
-            config_file=getattr(args, "zenoh_config", None),
-        )
+        return cls(getattr(args, "zenoh_mode", None), list(getattr(args, "connect", None) or []),
+                   list(getattr(args, "listen", None) or []), getattr(args, "zenoh_config", None))  # fmt: skip
 
 
 def add_zenoh_args(parser: argparse.ArgumentParser) -> None:
@@ -145,19 +141,12 @@ def add_zenoh_args(parser: argparse.ArgumentParser) -> None:
 
 def _explicit(options: ZenohOptions, env: dict[str, str]) -> dict[str, object]:
     """Settings given by flags (level 4) or, failing that, the environment (level 3)."""
-    out: dict[str, object] = {}
     mode = options.mode or env.get(ENV_MODE)
-    if mode:
-        if mode not in MODES:
-            raise ValueError(f"Zenoh mode {mode!r} is not one of {MODES}")
-        out["mode"] = mode
-    connect = options.connect or _split(env.get(ENV_CONNECT))
-    if connect:
-        out["connect"] = connect
-    listen = options.listen or _split(env.get(ENV_LISTEN))
-    if listen:
-        out["listen"] = listen
-    return out
+    if mode and mode not in MODES:
+        raise ValueError(f"Zenoh mode {mode!r} is not one of {MODES}")
+    given = {"mode": mode, "connect": options.connect or _split(env.get(ENV_CONNECT)),
+             "listen": options.listen or _split(env.get(ENV_LISTEN))}  # fmt: skip
+    return {name: value for name, value in given.items() if value}
 
 
 def resolve(options: ZenohOptions | None = None, env: dict[str, str] | None = None) -> dict[str, object]:
@@ -200,15 +189,8 @@ def resolve(options: ZenohOptions | None = None, env: dict[str, str] | None = No
         listen += [own] if own else []
         peers = local_peers(own, env)
         protocols = list(dict.fromkeys([LOCAL_PROTOCOL, *(_protocol(e) for e in listen)]))
-    return {
-        "mode": mode,
-        "connect": connect,
-        "listen": listen,
-        "config_file": None,
-        "multicast": False,
-        "protocols": protocols,
-        "local_peers": peers,
-    }
+    return dict(mode=mode, connect=connect, listen=listen, config_file=None, multicast=False, protocols=protocols,
+                local_peers=peers)  # fmt: skip
 
 
 def _wait_for_connect(conf: zenoh.Config) -> None:
@@ -277,12 +259,10 @@ def zenoh_config(options: ZenohOptions | None = None, env: dict[str, str] | None
         return conf
     conf = zenoh.Config()
     conf.insert_json5("mode", json.dumps(s["mode"]))
-    if s["connect"]:
-        conf.insert_json5("connect/endpoints", json.dumps(s["connect"]))
-    if s["listen"]:
-        conf.insert_json5("listen/endpoints", json.dumps(s["listen"]))
-    if s["protocols"]:
-        conf.insert_json5("transport/link/protocols", json.dumps(s["protocols"]))
+    for name, path in (("connect", "connect/endpoints"), ("listen", "listen/endpoints"),
+                       ("protocols", "transport/link/protocols")):  # fmt: skip
+        if s[name]:
+            conf.insert_json5(path, json.dumps(s[name]))
     conf.insert_json5("scouting/multicast/enabled", "false")
     if s["local_peers"]:  # this user's sessions: dialled now, those gone are not waited for
         conf.insert_json5("connect/endpoints", json.dumps(s["local_peers"]))

@@ -120,9 +120,6 @@ class PointCloud2:
     def field_names(self) -> list[str]:
         return [f.name for f in self.fields]
 
-    def has_field(self, name: str) -> bool:
-        return name in self._field_index
-
     def _field_view(self, f: PointField, dtype: np.dtype, offset: int = 0, count: int = 1) -> np.ndarray:
         n = self.n_points
         buf = np.frombuffer(self.data, dtype=np.uint8)

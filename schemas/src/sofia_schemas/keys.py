@@ -38,6 +38,7 @@ import argparse
 import os
 import re
 from dataclasses import dataclass
+from typing import overload
 
 DEFAULT_ROBOT = "panda"
 ROBOT_ENV = "SOFIA_ROBOT"
@@ -71,6 +72,21 @@ def add_robot_arg(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--robot", default=None, help=f"robot id (default ${ROBOT_ENV} or {DEFAULT_ROBOT})")
 
 
+# The key ``{prefix}/{path}`` of a :class:`Keys`, read as an attribute: a property (without a class
+# docstring), so that the reference pages list it with its own docstring.
+class _Key(property):
+    def __init__(self, path: str, doc: str | None = None) -> None:
+        super().__init__(lambda keys: f"{keys.prefix}/{path}")
+        self.__doc__ = doc
+
+    @overload
+    def __get__(self, keys: None, owner: type, /) -> _Key: ...
+    @overload
+    def __get__(self, keys: Keys, owner: type | None = None, /) -> str: ...
+    def __get__(self, keys: Keys | None, owner: type | None = None, /) -> str | _Key:
+        return self if keys is None else str(self.fget(keys))  # type: ignore[misc]
+
+
 @dataclass(frozen=True)
 class Keys:
     """Key expressions for one robot id.
@@ -92,95 +108,42 @@ class Keys:
         return f"{ROOT}/{self.robot}"
 
     # --- data plane -------------------------------------------------------
-    @property
-    def points(self) -> str:
-        """Point clouds in the robot base frame (the lab's ``/pc_glob``)."""
-        return f"{self.prefix}/points"
-
-    @property
-    def camera_points(self) -> str:
-        """Point clouds in the camera optical frame."""
-        return f"{self.prefix}/camera/points"
-
-    @property
-    def camera_info(self) -> str:
-        """CameraInfo of the colour stream the camera clouds are in."""
-        return f"{self.prefix}/camera/camera_info"
-
-    @property
-    def flange_pose(self) -> str:
-        """Stamped base -> flange poses."""
-        return f"{self.prefix}/flange/pose"
-
+    points = _Key("points", "Point clouds in the robot base frame (the lab's ``/pc_glob``).")
+    camera_points = _Key("camera/points", "Point clouds in the camera optical frame.")
+    camera_info = _Key("camera/camera_info", "CameraInfo of the colour stream the camera clouds are in.")
+    flange_pose = _Key("flange/pose", "Stamped base -> flange poses.")
     # --- detector ---------------------------------------------------------
-    @property
-    def detections(self) -> str:
-        return f"{self.prefix}/detector/detections"
-
-    @property
-    def detect(self) -> str:
-        return f"{self.prefix}/detector/detect"
-
+    detections = _Key("detector/detections")
+    detect = _Key("detector/detect")
     # --- calibrator -------------------------------------------------------
-    @property
-    def calibrator(self) -> str:
-        return f"{self.prefix}/calibrator"
-
-    @property
-    def blob(self) -> str:
-        """Blob observations in the camera optical frame."""
-        return f"{self.calibrator}/blob"
-
-    @property
-    def calibration_result(self) -> str:
-        return f"{self.calibrator}/result"
+    calibrator = _Key("calibrator")
+    blob = _Key("calibrator/blob", "Blob observations in the camera optical frame.")
+    calibration_result = _Key("calibrator/result")
 
     def calibrator_op(self, op: str) -> str:
         """Calibrator queryables: ``add``, ``remove``, ``reset``, ``solve``, ``save``, ``samples``."""
         return f"{self.calibrator}/{op}"
 
     # --- gripper ----------------------------------------------------------
-    @property
-    def gripper_state(self) -> str:
-        return f"{self.prefix}/gripper/state"
-
-    @property
-    def gripper_command(self) -> str:
-        return f"{self.prefix}/gripper/command"
-
+    gripper_state = _Key("gripper/state")
+    gripper_command = _Key("gripper/command")
     # --- arm --------------------------------------------------------------
-    @property
-    def arm_command(self) -> str:
-        """Arm commands: query JSON ArmCommand -> JSON ArmResult."""
-        return f"{self.prefix}/arm/command"
-
-    @property
-    def arm_state(self) -> str:
-        """JSON ArmState (mode, errors, moving, last command)."""
-        return f"{self.prefix}/arm/state"
-
-    @property
-    def arm_joint_states(self) -> str:
-        """Measured joint positions and velocities (CDR sensor_msgs/msg/JointState)."""
-        return f"{self.prefix}/arm/joint_states"
-
-    @property
-    def arm_progress(self) -> str:
-        """Steps of a running compound command (JSON ArmPhase per pose or phase)."""
-        return f"{self.prefix}/arm/progress"
-
+    arm_command = _Key("arm/command", "Arm commands: query JSON ArmCommand -> JSON ArmResult.")
+    arm_state = _Key("arm/state", "JSON ArmState (mode, errors, moving, last command).")
+    arm_joint_states = _Key(
+        "arm/joint_states", "Measured joint positions and velocities (CDR sensor_msgs/msg/JointState)."
+    )
+    arm_progress = _Key(
+        "arm/progress", "Steps of a running compound command (JSON ArmPhase per pose or phase)."
+    )
     # --- system -----------------------------------------------------------
-    @property
-    def pick_target(self) -> str:
-        return f"{self.prefix}/pick/target"
+    pick_target = _Key("pick/target")
 
     def status(self, service: str) -> str:
         """Status of a service (``detector``, ``calibrator``, ``gripper``, ``replay``)."""
         return f"{self.prefix}/{service}/status"
 
-    @property
-    def all(self) -> str:
-        return f"{self.prefix}/**"
+    all = _Key("**")
 
     def topic_map(self) -> dict[str, str]:
         """Default MCAP topic -> key mapping used by the replayer."""

@@ -79,17 +79,10 @@ def decode(payload: bytes | bytearray | memoryview) -> PointCloud2:
             f"at most {CDR_PADDING_MAX} bytes of alignment padding may follow"
         )
     return PointCloud2(
-        stamp_ns=sec * 1_000_000_000 + nsec,
-        frame_id=layout.frame_id,
-        height=layout.height,
-        width=layout.width,
-        fields=layout.fields,
-        point_step=layout.point_step,
-        row_step=layout.row_step,
-        data=data,
-        is_dense=is_dense,
-        is_bigendian=layout.is_bigendian,
-    )
+        stamp_ns=sec * 1_000_000_000 + nsec, frame_id=layout.frame_id, height=layout.height, width=layout.width,
+        fields=layout.fields, point_step=layout.point_step, row_step=layout.row_step, data=data,
+        is_dense=is_dense, is_bigendian=layout.is_bigendian,
+    )  # fmt: skip
 
 
 # --- CDR writing ------------------------------------------------------------

@@ -8,13 +8,17 @@ byte (CDR encapsulation header vs ``{``).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from functools import lru_cache
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
+from pydantic import BaseModel
 
 from .errors import PayloadError
 from .messages import BlobObservation, FlangePose
+
+M = TypeVar("M", bound=BaseModel)
 
 POINTCLOUD2 = "sensor_msgs/msg/PointCloud2"
 TRANSFORM_STAMPED = "geometry_msgs/msg/TransformStamped"
@@ -68,59 +72,62 @@ def encode_blob(obs: BlobObservation) -> bytes:
     return bytes(ts.serialize_cdr(msg, POINT_STAMPED))
 
 
-def _is_json(payload: bytes) -> bool:
-    return payload[:1] in (b"{", b" ", b"\n")
+def _decode(
+    payload: bytes | bytearray | memoryview,
+    what: str,
+    model: type[M],
+    typename: str,
+    from_msg: Callable[[Any], M],
+) -> M:
+    """``model`` from pydantic JSON bytes, else ``from_msg(msg)`` of the CDR ``typename`` message;
+    PayloadError naming ``what`` if neither."""
+    payload = bytes(payload)
+    if payload[:1] in (b"{", b" ", b"\n"):
+        try:
+            return model.model_validate_json(payload)
+        except ValueError as e:
+            raise PayloadError(f"{what} JSON is invalid: {e}") from None
+    try:
+        return from_msg(typestore().deserialize_cdr(payload, typename))
+    except Exception as e:  # rosbags raises assorted errors on corrupt CDR
+        raise PayloadError(
+            f"{what} payload ({len(payload)} bytes) is neither JSON nor CDR {typename}: {e}"
+        ) from None
+
+
+def _stamp_ns(msg: Any) -> int:
+    return int(msg.header.stamp.sec) * 1_000_000_000 + int(msg.header.stamp.nanosec)
+
+
+def _flange_pose(msg: Any) -> FlangePose:
+    tr, rot = msg.transform.translation, msg.transform.rotation
+    return FlangePose(
+        stamp_ns=_stamp_ns(msg),
+        frame_id=msg.header.frame_id,
+        child_frame_id=msg.child_frame_id,
+        translation=(tr.x, tr.y, tr.z),
+        rotation_xyzw=(rot.x, rot.y, rot.z, rot.w),
+    )
+
+
+def _blob(msg: Any) -> BlobObservation:
+    p = msg.point
+    return BlobObservation(
+        stamp_ns=_stamp_ns(msg),
+        frame_id=msg.header.frame_id,
+        position=(float(p.x), float(p.y), float(p.z)),
+        confidence=1.0,
+    )
 
 
 def decode_flange_pose(payload: bytes | bytearray | memoryview) -> FlangePose:
     """A :class:`FlangePose` from CDR TransformStamped or JSON bytes; PayloadError if neither."""
-    payload = bytes(payload)
-    if _is_json(payload):
-        try:
-            return FlangePose.model_validate_json(payload)
-        except ValueError as e:
-            raise PayloadError(f"flange pose JSON is invalid: {e}") from None
-    try:
-        msg = typestore().deserialize_cdr(payload, TRANSFORM_STAMPED)
-        tr, rot = msg.transform.translation, msg.transform.rotation
-        return FlangePose(
-            stamp_ns=msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec,
-            frame_id=msg.header.frame_id,
-            child_frame_id=msg.child_frame_id,
-            translation=(tr.x, tr.y, tr.z),
-            rotation_xyzw=(rot.x, rot.y, rot.z, rot.w),
-        )
-    except PayloadError:
-        raise
-    except Exception as e:  # rosbags raises assorted errors on corrupt CDR
-        raise PayloadError(
-            f"flange pose payload ({len(payload)} bytes) is neither JSON nor CDR {TRANSFORM_STAMPED}: {e}"
-        ) from None
+    return _decode(payload, "flange pose", FlangePose, TRANSFORM_STAMPED, _flange_pose)
 
 
 def decode_blob(payload: bytes | bytearray | memoryview) -> BlobObservation:
     """A :class:`BlobObservation` from CDR PointStamped or JSON bytes; PayloadError if neither."""
-    payload = bytes(payload)
-    if _is_json(payload):
-        try:
-            return BlobObservation.model_validate_json(payload)
-        except ValueError as e:
-            raise PayloadError(f"blob observation JSON is invalid: {e}") from None
-    try:
-        msg = typestore().deserialize_cdr(payload, POINT_STAMPED)
-        p = np.array([msg.point.x, msg.point.y, msg.point.z])
-        return BlobObservation(
-            stamp_ns=msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec,
-            frame_id=msg.header.frame_id,
-            position=(float(p[0]), float(p[1]), float(p[2])),
-            confidence=1.0,
-        )
-    except PayloadError:
-        raise
-    except Exception as e:  # rosbags raises assorted errors on corrupt CDR
-        raise PayloadError(
-            f"blob payload ({len(payload)} bytes) is neither JSON nor CDR {POINT_STAMPED}: {e}"
-        ) from None
+    return _decode(payload, "blob", BlobObservation, POINT_STAMPED, _blob)
 
 
 JOINT_STATE = "sensor_msgs/msg/JointState"
@@ -155,9 +162,8 @@ def decode_joint_state(
         raise PayloadError(
             f"joint state payload ({len(payload)} bytes) is not CDR {JOINT_STATE}: {e}"
         ) from None
-    stamp_ns = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
     return (
-        stamp_ns,
+        _stamp_ns(msg),
         list(msg.name),
         np.asarray(msg.position),
         np.asarray(msg.velocity),

@@ -9,7 +9,6 @@ from dataclasses import dataclass
 
 import numpy as np
 import open3d as o3d
-from sofia_schemas.transforms import apply
 
 INVALID_ID = o3d.t.geometry.RaycastingScene.INVALID_ID
 
@@ -152,8 +151,3 @@ def look_at(eye_base: np.ndarray, target_base: np.ndarray, right_hint_base: np.n
     T[:3, :3] = np.stack([x, y, z], axis=1)
     T[:3, 3] = eye_base
     return T
-
-
-def points_cam_to_base(points_cam: np.ndarray, T_base_cam: np.ndarray) -> np.ndarray:
-    """(…, 3) camera-frame points mapped to the base frame (float32, NaN kept)."""
-    return apply(T_base_cam, points_cam.astype(np.float64)).astype(np.float32)

@@ -6,12 +6,11 @@ quaternions x y z w; joint positions are radians, joints 1-7.
 
 from __future__ import annotations
 
-import math
 from typing import Any, Literal
 
-from pydantic import Field, field_validator, model_validator
+from pydantic import Field, model_validator
 
-from .base import Finite, Message, Quat, Vec3
+from .base import Finite, Message, Quat, UnitQuat, Vec3
 from .pick import PickTarget
 
 ArmCommandName = Literal[
@@ -20,17 +19,6 @@ ArmCommandName = Literal[
 ArmStatus = Literal["done", "stopped", "preempted", "failed", "timeout"]
 ArmMode = Literal["idle", "moving", "error", "disconnected", "stopping"]
 JOINTS = 7
-
-
-def _unit_quat(
-    q: tuple[float, float, float, float] | None, name: str
-) -> tuple[float, float, float, float] | None:
-    if q is None:
-        return q
-    n = math.sqrt(sum(v * v for v in q))
-    if abs(n - 1.0) > 1e-3:
-        raise ValueError(f"{name} (x y z w) {q} has norm {n:.6f}, expected 1")
-    return q
 
 
 class ArmCommand(Message):
@@ -55,27 +43,15 @@ class ArmCommand(Message):
     command: ArmCommandName
     q: tuple[Finite, Finite, Finite, Finite, Finite, Finite, Finite] | None = None
     position: Vec3 | None = None
-    quaternion_xyzw: Quat | None = None
+    quaternion_xyzw: UnitQuat | None = None
     speed: Finite = Field(0.1, gt=0.0, le=1.0)
     timeout_s: Finite = Field(30.0, gt=0.0, le=3600.0)
     target: PickTarget | None = None
     place_position: Vec3 | None = None
-    place_quaternion_xyzw: Quat | None = None
+    place_quaternion_xyzw: UnitQuat | None = None
     place_object: Vec3 | None = None
     places_by_colour: dict[str, Vec3] = {}
     calibrate: dict[str, Any] = {}
-
-    @field_validator("quaternion_xyzw")
-    @classmethod
-    def _unit(cls, q: tuple[float, float, float, float] | None) -> tuple[float, float, float, float] | None:
-        return _unit_quat(q, "quaternion_xyzw")
-
-    @field_validator("place_quaternion_xyzw")
-    @classmethod
-    def _unit_place(
-        cls, q: tuple[float, float, float, float] | None
-    ) -> tuple[float, float, float, float] | None:
-        return _unit_quat(q, "place_quaternion_xyzw")
 
     @model_validator(mode="after")
     def _arguments(self) -> ArmCommand:

@@ -20,6 +20,16 @@ def _finite(v: float) -> float:
 Finite = Annotated[float, AfterValidator(_finite)]
 Vec3 = tuple[Finite, Finite, Finite]
 Quat = tuple[Finite, Finite, Finite, Finite]
+
+
+def _unit(q: tuple[float, float, float, float]) -> tuple[float, float, float, float]:
+    n = math.hypot(*q)  # one quaternion per message: no array
+    if abs(n - 1.0) > 1e-3:
+        raise ValueError(f"quaternion (x y z w) {q} has norm {n:.6f}, expected 1")
+    return q
+
+
+UnitQuat = Annotated[Quat, AfterValidator(_unit)]
 Matrix4 = tuple[tuple[Finite, Finite, Finite, Finite], ...]
 
 

@@ -2,13 +2,11 @@
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
-from pydantic import Field, field_validator
+from pydantic import Field
 
 from ..frames import BASE_FRAME, CAMERA_FRAME, FLANGE_FRAME
-from .base import Message, Quat, Vec3
+from .base import Message, UnitQuat, Vec3
 
 
 class FlangePose(Message):
@@ -18,15 +16,7 @@ class FlangePose(Message):
     frame_id: str = BASE_FRAME
     child_frame_id: str = FLANGE_FRAME
     translation: Vec3
-    rotation_xyzw: Quat
-
-    @field_validator("rotation_xyzw")
-    @classmethod
-    def _unit(cls, q: tuple[float, float, float, float]) -> tuple[float, float, float, float]:
-        n = math.hypot(*q)  # one pose per message: no array
-        if abs(n - 1.0) > 1e-3:
-            raise ValueError(f"quaternion (x y z w) {q} has norm {n:.6f}, expected 1")
-        return q
+    rotation_xyzw: UnitQuat
 
     def matrix(self) -> np.ndarray:
         """(4, 4) ``T_base_flange``."""

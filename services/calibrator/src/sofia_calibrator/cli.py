@@ -9,7 +9,7 @@ from importlib.metadata import entry_points
 from typing import Any
 
 import numpy as np
-from sofia_runtime.output import add_json_option
+from sofia_runtime.output import add_json_option, float_arg
 from sofia_runtime.zenoh_config import add_zenoh_args
 from sofia_schemas.frames import CAMERA_FRAME as CHILD_FRAME
 from sofia_schemas.frames import FLANGE_FRAME as PARENT_FRAME
@@ -93,15 +93,7 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     s.set_defaults(func=run_service)
 
 
-def _seconds(text: str) -> float:
-    """A duration from the command line: a positive, finite number of seconds."""
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a number of seconds") from None
-    if not 0.0 < value < float("inf"):
-        raise argparse.ArgumentTypeError(f"{text} is not a positive number of seconds")
-    return value
+_seconds = float_arg("a positive number of seconds", lambda s: 0.0 < s < float("inf"))
 
 
 def add_frame_args(p: argparse.ArgumentParser) -> None:

@@ -17,66 +17,36 @@ MODES = ("640x480", "848x480", "1280x720")
 
 def _add_sim_args(p: argparse.ArgumentParser) -> None:
     g = p.add_argument_group("simulation (--sim)")
-    g.add_argument(
-        "--sim-scene",
-        choices=("calibration", "board", "eye-to-hand", "ball"),
-        default="calibration",
-        help="the blob sheet for calibration, the board with objects, eye-to-hand: the camera on a "
-        "fixed mount and a ball on the flange, or ball: a ball on the table at --sim-target's x y, "
-        "radius --sim-ball's R (default calibration)",
-    )
-    g.add_argument(
-        "--sim-T-base-cam",
-        metavar="'x y z qx qy qz qw'|FILE",
-        dest="sim_T_base_cam",
-        help="eye-to-hand scene: the fixed camera's colour optical frame in the base frame (as "
-        "--sim-T-flange-cam; default: 0.75 m in front of the robot, looking back at the workspace)",
-    )
-    g.add_argument(
-        "--sim-ball",
-        nargs=4,
-        type=float,
-        metavar=("X", "Y", "Z", "R"),
-        help="eye-to-hand scene: the ball's centre in the flange frame and its radius, metres "
-        "(default 0 0 0.1 0.025); ball scene: its radius R",
-    )
-    g.add_argument(
-        "--sim-T-flange-cam",
-        metavar="'x y z qx qy qz qw'|FILE",
-        dest="sim_T_flange_cam",
-        help="true flange -> colour optical frame (metres, quaternion x y z w) or a YAML/JSON "
-        "file with matrix or translation + quaternion_xyzw (default: the synthetic data's)",
-    )
-    g.add_argument(
-        "--sim-target",
-        nargs=3,
-        type=float,
-        metavar=("X", "Y", "Z"),
-        help="calibration scene: blob centre in the base frame, metres (default 0.45 0.25 -0.0495); "
-        "ball scene: the ball's x y (resting on the table unless z is higher)",
-    )
-    g.add_argument(
-        "--sim-blob-radius", type=float, default=0.015, metavar="M", help="blob radius (default 0.015)"
-    )
+    # fmt: off
+    g.add_argument("--sim-scene", choices=("calibration", "board", "eye-to-hand", "ball"),
+                   default="calibration", help="the blob sheet for calibration, the board with objects, eye-to-hand: "
+                   "the camera on a fixed mount and a ball on the flange, or ball: a ball on the table at "
+                   "--sim-target's x y, radius --sim-ball's R (default calibration)")
+    g.add_argument("--sim-T-base-cam", metavar="'x y z qx qy qz qw'|FILE", dest="sim_T_base_cam",
+                   help="eye-to-hand scene: the fixed camera's colour optical frame in the base frame (as "
+                   "--sim-T-flange-cam; default: 0.75 m in front of the robot, looking back at the workspace)")
+    g.add_argument("--sim-ball", nargs=4, type=float, metavar=("X", "Y", "Z", "R"),
+                   help="eye-to-hand scene: the ball's centre in the flange frame and its radius, metres "
+                   "(default 0 0 0.1 0.025); ball scene: its radius R")
+    g.add_argument("--sim-T-flange-cam", metavar="'x y z qx qy qz qw'|FILE", dest="sim_T_flange_cam",
+                   help="true flange -> colour optical frame (metres, quaternion x y z w) or a YAML/JSON "
+                   "file with matrix or translation + quaternion_xyzw (default: the synthetic data's)")
+    g.add_argument("--sim-target", nargs=3, type=float, metavar=("X", "Y", "Z"),
+                   help="calibration scene: blob centre in the base frame, metres (default 0.45 0.25 -0.0495); "
+                   "ball scene: the ball's x y (resting on the table unless z is higher)")
+    g.add_argument("--sim-blob-radius", type=float, default=0.015, metavar="M", help="blob radius (default 0.015)")
     g.add_argument("--sim-seed", type=int, default=0, help="board scene and noise seed (default 0)")
-    g.add_argument(
-        "--sim-kind",
-        choices=("one", "two", "nonred", "empty", "sort"),
-        default="one",
-        help="board scene: objects on the board (default one, on a red field; sort: a yellow, a green, a blue "
-        "and a purple object on the first two rows)",
-    )
+    g.add_argument("--sim-kind", choices=("one", "two", "nonred", "empty", "sort"), default="one",
+                   help="board scene: objects on the board (default one, on a red field; sort: a yellow, a green, "
+                   "a blue and a purple object on the first two rows)")
     g.add_argument("--sim-board", type=Path, metavar="FILE", help="board YAML/JSON (default: the package's)")
     g.add_argument("--sim-world", type=Path, metavar="FILE",
                    help="board and eye-to-hand scenes: the world file shared with the arm and the gripper emulator, written "
-                        "here when missing (default: $SOFIA_SIM_WORLD); objects are rendered where it says")  # fmt: skip
-    g.add_argument(
-        "--sim-noise",
-        choices=("d435", "stereo", "none"),
-        default="d435",
-        help="d435: depth noise, dropouts, edge removal; stereo: the active-stereo model (right-imager "
-        "shadows, flying pixels, disparity steps; slower); none: exact geometry (default d435)",
-    )
+                        "here when missing (default: $SOFIA_SIM_WORLD); objects are rendered where it says")
+    g.add_argument("--sim-noise", choices=("d435", "stereo", "none"), default="d435",
+                   help="d435: depth noise, dropouts, edge removal; stereo: the active-stereo model (right-imager "
+                   "shadows, flying pixels, disparity steps; slower); none: exact geometry (default d435)")
+    # fmt: on
 
 
 def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
@@ -84,45 +54,24 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
 
     s = add_command(cs, "serve", _serve, "publish the camera's organized clouds and camera info")
     s.add_argument("--serial", help="camera serial number (default: the first connected)")
-    s.add_argument(
-        "--width", type=int, default=640, help="frame width, pixels: 640, 848 or 1280 (default 640)"
-    )
+    # fmt: off
+    s.add_argument("--width", type=int, default=640, help="frame width, pixels: 640, 848 or 1280 (default 640)")
     s.add_argument("--height", type=int, default=480, help="frame height, pixels: 480 or 720 (default 480)")
     s.add_argument("--fps", type=int, default=30, help="frame rate, Hz: 6, 15 or 30 (default 30)")
-    s.add_argument(
-        "--preset", help="visual preset: default, high_accuracy, high_density, medium_density, hand"
-    )
-    s.add_argument(
-        "--filters",
-        default="none",
-        help="comma-separated librealsense filters: decimation,spatial,temporal,hole_filling (default none)",
-    )
-    s.add_argument(
-        "--align",
-        choices=("registration", "librealsense"),
-        default="registration",
-        help="how depth is put on the colour grid: the service's own registration (default) or rs.align",
-    )
-    s.add_argument(
-        "--max-skew-ms",
-        type=float,
-        help="colour-depth offset still called one instant (default: half a frame)",
-    )
-    s.add_argument(
-        "--drop-unsynced",
-        action="store_true",
-        help="do not publish clouds whose colour is of another instant (default: publish, flagged)",
-    )
-    s.add_argument(
-        "--depth-correction",
-        choices=("auto", "off"),
-        default="auto",
-        help="apply the calibration result's depth correction (auto) or never (off)",
-    )
+    s.add_argument("--preset", help="visual preset: default, high_accuracy, high_density, medium_density, hand")
+    s.add_argument("--filters", default="none", help="comma-separated librealsense filters: "
+                   "decimation,spatial,temporal,hole_filling (default none)")
+    s.add_argument("--align", choices=("registration", "librealsense"), default="registration",
+                   help="how depth is put on the colour grid: the service's own registration (default) or rs.align")
+    s.add_argument("--max-skew-ms", type=float, help="colour-depth offset still called one instant "
+                   "(default: half a frame)")
+    s.add_argument("--drop-unsynced", action="store_true",
+                   help="do not publish clouds whose colour is of another instant (default: publish, flagged)")
+    s.add_argument("--depth-correction", choices=("auto", "off"), default="auto",
+                   help="apply the calibration result's depth correction (auto) or never (off)")
     add_robot_arg(s)
-    s.add_argument(
-        "--sim", action="store_true", help="frames from the simulated D435 at the live flange pose"
-    )
+    s.add_argument("--sim", action="store_true", help="frames from the simulated D435 at the live flange pose")
+    # fmt: on
     _add_sim_args(s)
     add_zenoh_args(s)
 

@@ -9,7 +9,7 @@ import os
 import sys
 from pathlib import Path
 
-from sofia_runtime.output import add_json_option
+from sofia_runtime.output import add_json_option, float_arg
 from sofia_runtime.zenoh_config import ZenohOptions, add_zenoh_args
 from sofia_schemas import Board
 from sofia_schemas.board import BOARD_HELP
@@ -68,15 +68,7 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     serve.set_defaults(func=_serve)
 
 
-def _confidence(text: str) -> float:
-    """A confidence from the command line: a number from 0 to 1."""
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
-    if not 0.0 <= value <= 1.0:
-        raise argparse.ArgumentTypeError(f"{text} is not a confidence between 0 and 1")
-    return value
+_confidence = float_arg("a confidence between 0 and 1", lambda c: 0.0 <= c <= 1.0)
 
 
 def _board(path: Path | None) -> Board:

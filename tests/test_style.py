@@ -19,6 +19,8 @@ PACKAGES = [
     "services/calibrator/src",
     "services/gripper/src",
     "services/camera/src",
+    "services/arm/src",
+    "services/viz/src",
 ]
 MAX_MODULE_LINES = 300
 

@@ -4,11 +4,10 @@ Each command runs under a :class:`Token`. A newer command cancels the running on
 (``preempted``), ``stop`` cancels it with ``stopped``, its deadline with ``timeout``; the motion loop
 notices within one poll period, brings the robot to a stop and returns that status.
 
-After a trajectory ends, the controller lets the joints settle, waits until the arm is still and
-compares the measured flange pose (Panda FK of the measured joints, averaged over 0.2 s of the
-robot's clock) with the target; while it is farther than half the tolerance it commands a small
-joint correction (the remaining error added to the command, approached from below), at most
-``max_corrections`` times. ``done`` means within the tolerance.
+After a trajectory ends and the arm is still, the measured flange pose (Panda FK of the measured
+joints, averaged over 0.2 s of the robot's clock) is compared with the target; while it is farther
+than half the tolerance a small joint correction (the remaining error added to the command,
+approached from below) is commanded, at most ``max_corrections`` times. ``done``: within the tolerance.
 """
 
 from __future__ import annotations

@@ -11,6 +11,8 @@ from typing import Any
 import pytest
 from dynamixel_sdk import PortHandler
 from sofia_gripper import Emulator, Gripper, GripperConfig
+from sofia_gripper.bus import MarginPort
+from sofia_gripper.service import EMULATED_REPLY_MARGIN_MS
 from sofia_schemas.messages import GripperState
 
 BAUD = 1_000_000
@@ -26,7 +28,10 @@ def wait_until(predicate: Callable[[], bool], timeout: float, what: str) -> None
 
 
 def make_config(path: str, protocol: int = 2, **kw: object) -> GripperConfig:
-    base = {"port": path, "baud": BAUD, "protocol": protocol, "reconnect_period_s": 0.2, "watchdog_ms": 200}
+    """The emulated servo's config; replies waited for as the service waits for an emulator's (a
+    process on this host, which a loaded host delays beyond the SDK's timeout for a real adapter)."""
+    base = {"port": path, "baud": BAUD, "protocol": protocol, "reconnect_period_s": 0.2, "watchdog_ms": 200,
+            "reply_margin_ms": EMULATED_REPLY_MARGIN_MS}  # fmt: skip
     return GripperConfig.model_validate({**base, **kw})
 
 
@@ -36,11 +41,18 @@ def emulator(tmp_path: Path) -> Iterator[Emulator]:
         yield emu
 
 
+def open_port(path: str) -> PortHandler:
+    """``path`` opened with the real dynamixel_sdk, its status-packet timeouts lengthened as the
+    service's for an emulator, for packet-level tests."""
+    p = MarginPort(path)
+    p.margin_ms = EMULATED_REPLY_MARGIN_MS
+    assert p.setBaudRate(BAUD)
+    return p
+
+
 @pytest.fixture
 def port(emulator: Emulator) -> Iterator[PortHandler]:
-    """The emulator's tty opened with the real dynamixel_sdk, for packet-level tests."""
-    p = PortHandler(emulator.path)
-    assert p.setBaudRate(BAUD)
+    p = open_port(emulator.path)
     yield p
     p.closePort()
 

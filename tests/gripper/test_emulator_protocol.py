@@ -18,7 +18,7 @@ from dynamixel_sdk import (
 from sofia_gripper import Emulator
 from sofia_gripper import packets as pk
 
-from .conftest import BAUD
+from .conftest import BAUD, open_port
 
 P2_ERR_ACCESS, P2_ERR_LIMIT = 7, 6
 
@@ -61,8 +61,7 @@ def test_sync_and_bulk_read_sync_write_reg_action_reboot_p2(emulator: Emulator, 
 
 
 def test_protocol1_ping_read_write_bulk(emulator_p1: Emulator) -> None:
-    port = PortHandler(emulator_p1.path)
-    assert port.setBaudRate(BAUD)
+    port = open_port(emulator_p1.path)
     try:
         ph = PacketHandler(1.0)
         assert ph.ping(port, 1) == (310, COMM_SUCCESS, 0)

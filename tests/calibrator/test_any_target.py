@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import subprocess
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -21,6 +22,15 @@ def _ball(centre: np.ndarray, radius: float, rng: np.random.Generator, n: int = 
     d /= np.linalg.norm(d, axis=1, keepdims=True)
     d = d[d @ centre < 0][:n]
     return np.asarray(centre + radius * d + rng.standard_normal((len(d), 3)) * 3e-4)
+
+
+def _eye_to_hand_poses(seed: int) -> tuple[Any, np.ndarray]:
+    """An exact eye-to-hand problem of 10 poses and its target poses in the camera, (10, 4, 4): the
+    target frame at the ball's place on the flange, axes as the flange's."""
+    pr = make_eye_to_hand(10, np.random.default_rng(seed), noise_scale=0.0)
+    T_flange_target = np.eye(4)
+    T_flange_target[:3, 3] = pr.p_flange
+    return pr, np.linalg.inv(pr.T_base_cam) @ pr.T_base_flange @ T_flange_target
 
 
 def test_the_blob_call_is_calibrate() -> None:
@@ -44,11 +54,7 @@ def test_a_ball_on_the_flange_calibrates_a_fixed_camera() -> None:
 
 
 def test_pose_targets_give_the_same_message() -> None:
-    rng = np.random.default_rng(22)
-    pr = make_eye_to_hand(10, rng, noise_scale=0.0)
-    T_flange_target = np.eye(4)
-    T_flange_target[:3, 3] = pr.p_flange
-    T_cam_target = np.linalg.inv(pr.T_base_cam) @ pr.T_base_flange @ T_flange_target
+    pr, T_cam_target = _eye_to_hand_poses(22)
     cal = calibrate_target("poses", "eye-to-hand", T_base_flange=pr.T_base_flange, T_cam_target=T_cam_target)
     np.testing.assert_allclose(cal.T_flange_cam, pr.T_base_cam, atol=1e-6)
     text = to_yaml(to_message(cal))
@@ -58,11 +64,7 @@ def test_pose_targets_give_the_same_message() -> None:
 def test_robot_world_hand_eye_starts_and_baselines_recover_exact_poses() -> None:
     from sofia_calibrator.targets.poses import hand_eye_from_poses, opencv_hand_eye
 
-    rng = np.random.default_rng(23)
-    pr = make_eye_to_hand(10, rng, noise_scale=0.0)
-    T_flange_target = np.eye(4)
-    T_flange_target[:3, 3] = pr.p_flange
-    T_cam_target = np.linalg.inv(pr.T_base_cam) @ pr.T_base_flange @ T_flange_target
+    pr, T_cam_target = _eye_to_hand_poses(23)
     A = np.linalg.inv(pr.T_base_flange)  # eye-to-hand: the eye-in-hand problem of the inverted poses
     base = opencv_hand_eye(A, T_cam_target)
     for name in ("RW_SHAH", "RW_LI"):  # calibrateRobotWorldHandEye, with the target as its world

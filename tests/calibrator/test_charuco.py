@@ -12,11 +12,10 @@ import numpy as np
 import pytest
 from sofia_calibrator.any_target import calibrate_target
 from sofia_calibrator.fitting.diagnostics import error6
-from sofia_calibrator.fitting.simulate import random_T_flange_cam, views_of
 from sofia_calibrator.targets.poses import hand_eye_from_poses
 
 from ..conftest import SOFIA
-from .conftest import write_views
+from .conftest import rendered_views, write_views
 
 pytest.importorskip("cv2")
 from sofia_calibrator.targets.charuco import BoardNotFound, BoardSpec, board_poses, render_view
@@ -26,17 +25,9 @@ K = np.array([[600.0, 0.0, 320.0], [0.0, 600.0, 240.0], [0.0, 0.0, 1.0]])
 
 def _views(n: int, seed: int):  # type: ignore[no-untyped-def]
     """(X true T_flange_cam, T_base_flange (n, 4, 4), true T_cam_board (n, 4, 4), images)."""
-    rng = np.random.default_rng(seed)
-    X = random_T_flange_cam(rng)
-    centre = np.array([0.5, 0.0, 0.0])
-    Y = np.eye(4)
-    Y[:3, :3] = np.diag([1.0, -1.0, -1.0])  # the board's z into the table: its face up
-    Y[:3, 3] = centre - Y[:3, :3] @ np.r_[0.14, 0.10, 0.0]
-    T_base_cam = views_of(centre, n, rng, distance=(0.4, 0.6), max_off_axis_deg=35, max_image_offset_deg=8)
-    B = np.linalg.inv(T_base_cam) @ Y
-    images = [np.clip(render_view(b, K, (640, 480)) + rng.normal(0, 3, (480, 640)), 0, 255).astype(np.uint8)
-              for b in B]  # fmt: skip
-    return X, T_base_cam @ np.linalg.inv(X), B, images
+    return rendered_views(
+        n, seed, lambda b: render_view(b, K, (640, 480)), (0.4, 0.6), np.r_[0.14, 0.10, 0.0]
+    )
 
 
 def test_rendered_charuco_views_calibrate() -> None:

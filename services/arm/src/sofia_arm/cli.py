@@ -27,7 +27,8 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
         type=Path,
         help="arm YAML/JSON config (limits, workspace box, margins; default: the built-in values)",
     )
-    s.add_argument("--model", choices=("panda", "fr3"), help="joint limits of this robot (default panda)")
+    s.add_argument("--model", choices=("panda", "fr3"),
+                   help="joint limits of this robot (default panda; fr3 with --sim: franky-sim simulates an FR3)")  # fmt: skip
     s.add_argument("--max-speed", type=float, metavar="F",
                    help="relative velocity, acceleration and jerk limit, (0, 1] (default 0.1)")  # fmt: skip
     s.add_argument("--hz", type=float, metavar="HZ", help="flange pose / joint state rate, Hz (default 200)")
@@ -109,7 +110,8 @@ def _serve(args: argparse.Namespace) -> int:
     from .service import ServiceConfig, main
 
     f = args.max_speed
-    arm = load_config(args.config, model=args.model, max_velocity=f, max_acceleration=f, max_jerk=f,
+    model = args.model or ("fr3" if args.sim else None)  # franky-sim's MuJoCo robot is an FR3 (its limits)
+    arm = load_config(args.config, model=model, max_velocity=f, max_acceleration=f, max_jerk=f,
                       state_rate_hz=args.hz, realtime=args.realtime, tool=args.tool, board_file=args.board_file,
                       surface_z=args.surface_z, transform_file=args.transform_file)  # fmt: skip
     conf = ServiceConfig(arm=arm, robot=default_robot(), zenoh=ZenohOptions.from_args(args),

@@ -38,6 +38,17 @@ def test_bus_watchdog_trip_is_cleared_and_the_command_goes_through(
     wait_until(lambda: gripper.state.watchdog_trips == 1, 2.0, "trip reported in the state")
 
 
+def test_stop_after_a_bus_watchdog_trip_clears_it_and_holds(gripper: Gripper, emulator: Emulator) -> None:
+    """ "Bus Watchdog(98)": a stop that comes after a trip (a host stall) still holds the fingers
+    where they are: its Goal Position write clears the trip instead of failing on Data Range."""
+    with gripper.bus.lock:
+        time.sleep(0.5)
+        assert emulator.snapshot()["watchdog"] == WATCHDOG_TRIPPED
+    r = gripper.execute(Cmd(action="stop"))
+    assert r.ok, r.reason
+    assert gripper.counters["watchdog_trips"] == 1 and emulator.servo.get("bus_watchdog") == 10
+
+
 def test_bus_watchdog_trip_during_a_grasp_resends_the_goal(gripper: Gripper, emulator: Emulator) -> None:
     emulator.set_object(40.0)
     results = []

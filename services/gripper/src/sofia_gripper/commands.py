@@ -40,8 +40,8 @@ def _execute(g: GripperDriver, cmd: GripperCommand, clear_abort: bool = True) ->
         g.abort.set()
         _require_connected(g)
         state = g.state
-        if state.position_ticks is not None:
-            g.bus.write("goal_position", state.position_ticks)
+        if state.position_ticks is not None:  # through write_goal: a tripped Bus Watchdog is cleared
+            g.servo.write_goal("goal_position", state.position_ticks)
         return _result(cmd, True, "done", g.next_state(0.5) or g.state, t0)
     with g.command_lock:
         if clear_abort:

@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.spatial.transform import Rotation
-from sofia_schemas.kinematics import Q_MAX, Q_MIN, panda_fk
+from sofia_schemas.kinematics import RobotModel, joint_limits, panda_fk
 
 Q_HOME = np.array([0.0, -np.pi / 4, 0.0, -3 * np.pi / 4, 0.0, np.pi / 2, np.pi / 4])
 IK_POS_TOL_M = 1e-5
@@ -23,8 +23,8 @@ FD_STEP_RAD = 1e-6
 
 @dataclass(frozen=True)
 class Reach:
-    """What the planner may ask of the arm: joint limits shrunk by ``joint_margin`` (rad) and a box
-    (base frame, metres) the flange origin must stay in."""
+    """What the planner may ask of the arm: the joint limits of ``model`` shrunk by ``joint_margin``
+    (rad) and a box (base frame, metres) the flange origin must stay in."""
 
     joint_margin: float = 0.1
     box_min: tuple[float, float, float] = (0.15, -0.6, 0.05)
@@ -33,14 +33,15 @@ class Reach:
     # the service's rule of the tool above the surface (:mod:`sofia_arm.tool`); none by default
     tool_points_flange: tuple[tuple[float, float, float], ...] = ()
     tool_lowest_z: float = -np.inf
+    model: RobotModel = "panda"
 
     @property
     def q_lo(self) -> np.ndarray:
-        return Q_MIN + self.joint_margin
+        return joint_limits(self.model)[0] + self.joint_margin
 
     @property
     def q_hi(self) -> np.ndarray:
-        return Q_MAX - self.joint_margin
+        return joint_limits(self.model)[1] - self.joint_margin
 
     def in_box(self, p_base: np.ndarray) -> np.ndarray:
         """(n,) bool: flange positions (n, 3) (base frame) inside the box."""

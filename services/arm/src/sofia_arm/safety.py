@@ -126,11 +126,11 @@ class Safety:
         )
 
     def planner_reach(self, reach: poses.Reach) -> poses.Reach:
-        """``reach`` (a planner's joint margin and box) with this tool and surface added."""
+        """``reach`` (a planner's joint margin and box) with this robot's joint limits, this tool and
+        surface."""
         points = tuple((float(x), float(y), float(z)) for x, y, z in self.tool.points_flange)
-        return dataclasses.replace(
-            reach, tool_points_flange=points, tool_lowest_z=self.surface.lowest_allowed
-        )
+        return dataclasses.replace(reach, tool_points_flange=points, tool_lowest_z=self.surface.lowest_allowed,
+                                   model=self.config.model)  # fmt: skip
 
     def check_joints(self, q: np.ndarray, what: str = "target") -> np.ndarray:
         """``q`` as a float64 (7,) array; TargetRefused when malformed or outside limits minus margin."""

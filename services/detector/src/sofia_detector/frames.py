@@ -1,10 +1,5 @@
-"""Camera-frame clouds into the base frame: the flange->camera transform and the flange pose history.
-
-``T_base_cam = T_base_flange(stamp) @ T_flange_cam``. ``T_flange_cam`` comes from the calibrator
-(a :class:`~sofia_schemas.CalibrationResult`) or from a file; ``T_base_flange`` at the cloud's stamp
-is interpolated from the recent flange poses. The calibration's ``camera_correction`` (a depth
-scale) is applied to camera-frame points first, unless the cloud's producer already applied it.
-"""
+"""Camera-frame clouds into the base frame: ``T_base_cam = T_base_flange(stamp) @ T_flange_cam``,
+``T_flange_cam`` from the calibrator or a file, ``T_base_flange`` interpolated from recent flange poses."""
 
 from __future__ import annotations
 
@@ -95,10 +90,8 @@ class FlangeHistory:
         self.tolerance_ns = tolerance_ns
 
     def add(self, stamp_ns: int, T_base_flange: np.ndarray | FlangePose) -> None:
-        """Add a pose: a (4, 4) matrix, or a :class:`FlangePose` (validated; its matrix is computed
-        only if a cloud asks for it: base-frame clouds never do). A jump back in time of more than
-        ``JUMP_BACK_NS`` (a replay restarted, another recording, a clock reset) clears the history
-        first, as ROS tf does: poses of two time lines must not be mixed."""
+        """Add a (4, 4) matrix or a :class:`FlangePose` (its matrix computed only when asked). A jump
+        back of more than ``JUMP_BACK_NS`` clears the history first, as ROS tf does."""
         with self._arrived:
             if self._poses and stamp_ns < self._poses[-1][0] - JUMP_BACK_NS:
                 log.warning(
@@ -115,10 +108,7 @@ class FlangeHistory:
             self._arrived.notify_all()
 
     def wait_covered(self, stamp_ns: int, timeout_s: float) -> bool:
-        """Wait up to ``timeout_s`` until a pose at or after ``stamp_ns`` has arrived.
-
-        Poses and clouds travel on different keys, so the pose of a cloud's stamp may arrive just
-        after the cloud. Returns False on timeout (``at`` then uses what has arrived)."""
+        """Wait up to ``timeout_s`` for a pose at or after ``stamp_ns``; False on timeout."""
         with self._arrived:
             return self._arrived.wait_for(
                 lambda: bool(self._poses) and self._poses[-1][0] >= stamp_ns, timeout_s

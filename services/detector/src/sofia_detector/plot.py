@@ -1,8 +1,5 @@
-"""The board seen from above: fields (red ones marked, rows and columns numbered outside the board),
-the points' height above the board (mean per 3 mm cell, so the PNG stays small; points beside the
-board, the table or clutter, are drawn too), each object's footprint, centre and centroid, numbered
-on the plot and described beside it with its confidence, the fingers of the grasp of each object
-that may be picked, and the direction of the robot base. Base frame x/y, metres."""
+"""The board seen from above (base frame x/y, metres): fields, the points' mean height per 3 mm cell,
+each object's footprint, centre, centroid and grasp, and the direction of the robot base."""
 
 from __future__ import annotations
 
@@ -48,8 +45,7 @@ def _label_rows_and_columns(ax: Any, board: Board, center: np.ndarray, R: np.nda
 
 
 def _draw_fingers(ax: Any, detection: Detection) -> None:
-    """The grasp of each object that may be picked: the fingertips (opening apart, across the
-    object's width) and the axis they close along."""
+    """The fingertips and closing axis of the grasp of each object that may be picked."""
     for obj in pickable(detection, PickParams()):
         target = pick_target(obj, 0)
         y_axis = np.array([np.sin(target.yaw), -np.cos(target.yaw)])  # the flange y axis, base frame

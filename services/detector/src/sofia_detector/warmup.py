@@ -1,14 +1,7 @@
-"""Warm the detector service before its first cloud: compiled kernels, lazy imports, first calls.
-
-The first cloud of a process met work done once: numba's cache, the first calls of the detection,
-the pick and a flange pose's rotation, and the import of a flange pose's CDR types (``rosbags``),
-which a Zenoh callback thread ran while holding the GIL. The first detection took 60-110
-ms, most of it waiting for the GIL; at 30 Hz with a backlog of one the next cloud was dropped.
-The service therefore runs, before it says it is ready, its whole per-cloud path once on the
-payloads of :func:`warm_payloads`: a scene built from the configured board (a camera 0.8 m above
-the board centre looking straight down, the fields coloured red where allowed and white elsewhere,
-a blue box on the first red field) and a flange pose.
-"""
+"""Warm the detector service before its first cloud: numba kernels, lazy imports (``rosbags``), first
+calls. Without it the first detection took 60-110 ms (mostly waiting for the GIL) and, at 30 Hz with a
+backlog of one, the next cloud was dropped. The scene: a camera 0.8 m above the board, allowed fields
+red, others white, a blue box on the first red field."""
 
 from __future__ import annotations
 
@@ -64,10 +57,8 @@ def warm_scene(board: Board) -> tuple[np.ndarray, np.ndarray]:
 
 
 def compile_kernels() -> None:
-    """Compile every kernel of the detector (or load it from numba's cache) for the argument
-    layouts a detection passes (a received cloud's read-only, strided views of its bytes; arrays;
-    every k-th pixel), so that no detection waits for numba (``scripts/install.sh``, the detector's
-    image, the service's warm-up)."""
+    """Compile (or load from numba's cache) every kernel for the layouts a detection passes: read-only
+    strided views of a received cloud, arrays, every k-th pixel."""
     two = np.zeros((6, 6), dtype=bool)
     two[1, 1] = two[4, 4] = True  # two components
     xyz = np.zeros((3, 6, 6), dtype=np.float32)
@@ -95,10 +86,8 @@ def warm_payloads(board: Board) -> tuple[bytearray, bytes]:
 
 
 def warm_up(board: Board, detect_payload: Callable[[bytes, bool, str], Detection], pick: PickParams) -> float:
-    """Run the service's per-cloud path once on :func:`warm_payloads`, publishing nothing: decode
-    and detect (``detect_payload``, the service's), the messages' JSON, the pick, a flange pose's
-    decode. Seconds taken. A failure is logged, never raised: the service starts anyway, and only
-    its first cloud is slower."""
+    """Run the per-cloud path once on :func:`warm_payloads`, publishing nothing; seconds taken.
+    A failure is logged, never raised."""
     t0 = time.perf_counter()
     try:
         cloud, flange = warm_payloads(board)

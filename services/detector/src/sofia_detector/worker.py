@@ -1,14 +1,6 @@
-"""The detector service's hand-over: one queue for queries and clouds, waited on by one worker.
-
-Zenoh's callbacks put queries and clouds into a :class:`WorkQueue` and return; the worker blocks in
-:meth:`WorkQueue.get` on one condition variable that wakes on a query, a cloud, a flange pose
-(:meth:`WorkQueue.poke`) or the stop, never sleep-polling. Queries come first. A camera cloud
-whose flange pose has not arrived yet stays at the head of the queue until its pose arrives or
-its wait is over, and queries are served meanwhile.
-
-What the service drops (stale clouds, clouds it cannot map into the base frame, bad clouds) is
-counted per reason by :class:`DropLog`; the status says ``degraded`` while drops are recent.
-"""
+"""The detector service's hand-over: one queue for queries and clouds, one worker waiting on one
+condition variable (a query, a cloud, a flange pose or the stop wakes it). Queries come first; a camera
+cloud waiting for its flange pose stays at the head meanwhile. Drops are counted per reason (:class:`DropLog`)."""
 
 from __future__ import annotations
 
@@ -33,12 +25,8 @@ BAD = "bad clouds"
 
 @dataclass(slots=True)
 class CloudJob:
-    """Received cloud bytes (a view of Zenoh shared memory that holds the sample while it lives, or a
-    copy): ``camera`` True for camera-frame clouds; ``key`` where they came from.
-
-    ``arrived_s`` (monotonic) starts the wait for a flange pose; ``pose_stamp_ns`` is the stamp a
-    camera cloud needs a pose for (set by the worker when it first looks at the cloud; None: no
-    pose needed or the cloud is not readable, so it is processed at once)."""
+    """Received cloud bytes (a view of Zenoh shared memory, or a copy); ``camera``: camera frame.
+    ``arrived_s`` (monotonic) starts the wait for the flange pose of ``pose_stamp_ns``."""
 
     payload: bytes | memoryview
     camera: bool
@@ -50,15 +38,13 @@ class CloudJob:
     decoded: pointcloud.PointCloud2 | None = None
 
     def cloud(self) -> pointcloud.PointCloud2:
-        """The decoded cloud, decoded once (its points are views of ``payload``). Raises ValueError
-        subclasses naming what is wrong with the payload."""
+        """The cloud, decoded once (points are views of ``payload``). Raises ValueError subclasses."""
         if self.decoded is None:
             self.decoded = pointcloud.decode(self.payload)
         return self.decoded
 
     def pose_stamp(self, in_camera_frame: Callable[[str], bool]) -> int | None:
-        """The stamp this cloud needs a flange pose for: None for clouds in the board's frame and
-        unreadable ones (processing reports those). Reads the header once, without copying."""
+        """The stamp this cloud needs a flange pose for; None for board-frame and unreadable clouds."""
         if not self.inspected:
             self.inspected = True
             try:

@@ -102,16 +102,10 @@ def estimate_object(
 
     obj: the object's points, board frame, metres (z = height above the board). noise: depth noise
     standard deviation at the board, metres. curvature: the top is a cap when ``d < -curvature``
-    (1/m) and d is significant (t < -4), or the top is no flat face either (its heights spread
-    beyond the noise): then the cap's apex (or the highest points) gives the height and the
-    footprint of the top's band the centre. The fit uses the top points inside the ellipse inscribed
-    in 70 % of the footprint rectangle, so the visible sides of a flat-topped object do not bend
-    it. The footprint of a flat top is the rectangle of the points within 3 sigma of the top
-    height: the top and the upper edge of the visible sides, which project onto the footprint,
-    and not the mixed pixels that a depth camera leaves along silhouettes (they lie outside it).
-    A cone is centred on its apex: on the footprint's centre when the whole base is seen
-    (:func:`.caps.fit_cone`), else where its flanks point (:func:`.caps.fit_cone_apex`, tried when
-    the top is no flat face or a narrow band: a tip).
+    (1/m) with t < -4, or when its heights spread beyond the noise; the top fit uses the points in
+    the ellipse inscribed in 70 % of the footprint. A flat top's footprint: the points within 3 sigma
+    of its height (silhouette mixed pixels lie outside it). A cone is centred on its apex
+    (:func:`.caps.fit_cone`, :func:`.caps.fit_cone_apex`).
     colour_tol > 0: missing-depth pixels of a flat top's colour are part of it (:mod:`.holes`).
     min_width: a top narrower than this (metres) is a sliver of it; an upright round side then gives
     ``whole_xy`` and ``whole_size`` (:func:`round_side`).

@@ -79,15 +79,11 @@ def _confidence(text: str) -> float:
     return value
 
 
-def _board(path: Path | None) -> Board:
-    return Board.load(path)
-
-
 def _serve(args: argparse.Namespace) -> int:
     from .service import ServiceConfig, main
 
     config = ServiceConfig(
-        board=_board(args.board), robot=args.robot or default_robot(), zenoh=ZenohOptions.from_args(args),
+        board=Board.load(args.board), robot=args.robot or default_robot(), zenoh=ZenohOptions.from_args(args),
         transform_file=args.transform, backlog=args.backlog, pose_wait_s=args.pose_wait,
         pick=PickParams(min_confidence=args.pick_min_confidence),
     )  # fmt: skip
@@ -145,7 +141,7 @@ def _detect_files(args: argparse.Namespace) -> int:
 
 
 def _detect_all(args: argparse.Namespace) -> int:
-    board = _board(args.board)
+    board = Board.load(args.board)
     T_flange_cam = load_transform_file(args.transform) if args.transform else None
     transform_name = f"file {args.transform}" if args.transform else None
     failures, n_clouds = 0, 0

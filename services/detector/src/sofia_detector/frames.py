@@ -1,9 +1,7 @@
-"""Camera-frame clouds into the base frame: the flange->camera transform and the flange pose history.
+"""Camera-frame clouds into the base frame: ``T_base_cam = T_base_flange(stamp) @ T_flange_cam``.
 
-``T_base_cam = T_base_flange(stamp) @ T_flange_cam``. ``T_flange_cam`` comes from the calibrator
-(a :class:`~sofia_schemas.CalibrationResult`) or from a file; ``T_base_flange`` at the cloud's stamp
-is interpolated from the recent flange poses. The calibration's ``camera_correction`` (a depth
-scale) is applied to camera-frame points first, unless the cloud's producer already applied it.
+``T_flange_cam`` from the calibrator or a file; ``T_base_flange`` interpolated from recent flange
+poses; the calibration's ``camera_correction`` (depth scale) applied first unless already applied.
 """
 
 from __future__ import annotations

@@ -1,8 +1,6 @@
-"""The board seen from above: fields (red ones marked, rows and columns numbered outside the board),
-the points' height above the board (mean per 3 mm cell, so the PNG stays small; points beside the
-board, the table or clutter, are drawn too), each object's footprint, centre and centroid, numbered
-on the plot and described beside it with its confidence, the fingers of the grasp of each object
-that may be picked, and the direction of the robot base. Base frame x/y, metres."""
+"""The board seen from above (base frame x/y, metres): fields, the points' mean height per 3 mm cell,
+each object's footprint, centre and centroid with its confidence, the grasp's fingers of each
+object that may be picked, and the direction of the robot base."""
 
 from __future__ import annotations
 

@@ -1,13 +1,9 @@
 """Warm the detector service before its first cloud: compiled kernels, lazy imports, first calls.
 
-The first cloud of a process met work done once: numba's cache, the first calls of the detection,
-the pick and a flange pose's rotation, and the import of a flange pose's CDR types (``rosbags``),
-which a Zenoh callback thread ran while holding the GIL. The first detection took 60-110
-ms, most of it waiting for the GIL; at 30 Hz with a backlog of one the next cloud was dropped.
-The service therefore runs, before it says it is ready, its whole per-cloud path once on the
-payloads of :func:`warm_payloads`: a scene built from the configured board (a camera 0.8 m above
-the board centre looking straight down, the fields coloured red where allowed and white elsewhere,
-a blue box on the first red field) and a flange pose.
+Without it the first detection took 60-110 ms (numba's cache, first calls, the import of the
+flange pose's CDR types under the GIL) and, at 30 Hz with a backlog of one, the next cloud was
+dropped. The service runs its whole per-cloud path once on :func:`warm_payloads` (a scene of the
+configured board seen from 0.8 m above, a blue box on the first red field, and a flange pose).
 """
 
 from __future__ import annotations

@@ -1,13 +1,9 @@
-"""The detector service's hand-over: one queue for queries and clouds, waited on by one worker.
+"""The service's hand-over: one queue for queries and clouds, waited on by one worker.
 
-Zenoh's callbacks put queries and clouds into a :class:`WorkQueue` and return; the worker blocks in
-:meth:`WorkQueue.get` on one condition variable that wakes on a query, a cloud, a flange pose
-(:meth:`WorkQueue.poke`) or the stop, never sleep-polling. Queries come first. A camera cloud
-whose flange pose has not arrived yet stays at the head of the queue until its pose arrives or
-its wait is over, and queries are served meanwhile.
-
-What the service drops (stale clouds, clouds it cannot map into the base frame, bad clouds) is
-counted per reason by :class:`DropLog`; the status says ``degraded`` while drops are recent.
+Callbacks put work into a :class:`WorkQueue`; the worker blocks on one condition variable woken by
+a query, a cloud, a flange pose (:meth:`WorkQueue.poke`) or the stop. Queries come first; a camera
+cloud waits at the head for its flange pose (queries served meanwhile). :class:`DropLog` counts
+drops per reason; the status is ``degraded`` while drops are recent.
 """
 
 from __future__ import annotations

@@ -1,17 +1,10 @@
 """Object colours by name, robust to shading and to the light's colour and brightness.
 
-The board's white fields are in every image: their observed colour is the reference white. An
-object's colour is the median over its upper faces (lit like the board), scaled channel by
-channel so that the board's white looks like ``white_reference``, then named after the nearest
-palette colour in shading-invariant features (chromaticity and log brightness).
-
-Shading changes brightness only, and white, grey and black differ by brightness only. A face
-tilted by theta from the board receives less light: under diffuse light from above (a lab's
-ceiling, the sky) its irradiance is ``(1 + cos theta) / 2`` of the board's (the share of the
-upper hemisphere it sees), so a white cone's flanks (theta ~ 65 degrees) look 30 % darker than
-the board's white. :func:`lit_share` measures that factor from the faces' normals, and the
-colour of each of the object's pixels is divided by its face's factor, when the colour named
-without it could be a shaded brighter one (grey, black).
+An object's colour is the median over its upper faces, scaled per channel so the board's white
+fields look like ``white_reference``, named after the nearest palette colour in chromaticity and
+log brightness. A face tilted by theta gets ``(1 + cos theta) / 2`` of the board's diffuse light;
+:func:`lit_share` measures that from the normals and undoes it when the name could be a shaded
+brighter colour (grey, black).
 """
 
 from __future__ import annotations

@@ -1,16 +1,9 @@
 """Missing depth on a flat top, placed on the top from its colour.
 
-A stereo camera returns no depth on dark or glossy patches, and none where the second imager's
-view is blocked (the fingers' shadow). The colour camera still sees those pixels. Where they have
-the top's colour and join the top on the pixel grid, they may be the top: the top is a plane, so
-the pixel grid maps onto it by a homography, fitted on the top's pixels with depth, which places
-the others. A patch of such pixels is taken only when what borders it is the top itself (also
-pieces of it at its height that the missing depth cut off from the rest) or more missing depth (a
-hole inside the top, a shadow or an invalid band that also covers the board beside the object): a
-patch that the board with depth borders is a side face of the top's colour that the camera saw
-too obliquely (it is not on the top's plane). Nothing is done where the board around the object
-has the top's colour (the board's missing depth, the object's stereo shadow, could not be told
-apart from the top).
+Pixels without depth of the top's colour that join the top are placed on its plane by a
+homography fitted on the top's pixels with depth. A patch is taken only when the top (or more
+missing depth) borders it; one bordered by the board with depth is a side face seen obliquely.
+Nothing is done where the board around the object has the top's colour.
 """
 
 from __future__ import annotations

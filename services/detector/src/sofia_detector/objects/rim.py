@@ -1,14 +1,9 @@
 """Round flat tops (cylinders, pucks): the centre from a circle through the seen part of the rim.
 
-The rectangle around a flat top is its footprint only when the whole top is in view. Where the
-top runs out of view (the image border, the band the second imager does not see, an occluder, or
-missing depth on a dark or glossy top), the rectangle shrinks to the seen part and its centre
-moves. A rim pixel that borders the board or the object's own side (finite depth, lower than the
-top) is a true edge of the top wherever the rest of it is; a circle through those pixels gives the
-centre of a round top from an arc of 70 degrees or more. A rectangle's rim lies closer to its
-rectangle than to any circle, which tells boxes from cylinders. When the top itself is out of view
-(a tall bottle cut by the image border), the upright round side below it gives the axis
-(:func:`round_side`).
+Rim pixels bordering the board or the object's own side are true edges of the top even where the
+rest of it is out of view; a circle through them gives the centre from an arc of 70 degrees or
+more, and tells boxes (rim nearer its rectangle) from cylinders. A top out of view: the upright
+round side below it gives the axis (:func:`round_side`).
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Errors of the detector. Each constructor builds a message saying what was wrong, with the value."""
+"""Errors of the detector. Each message says what was wrong, with the value."""
 
 from __future__ import annotations
 
@@ -6,47 +6,48 @@ from sofia_schemas.errors import SofiaError
 
 
 class DetectorError(SofiaError, ValueError):
-    """Base class of every detector error."""
+    """Base class of every detector error; a subclass's ``template`` is filled with its arguments."""
+
+    template = "{}"
+
+    def __init__(self, *values: object) -> None:
+        super().__init__(self.template.format(*values))
 
 
 class BadCloud(DetectorError):  # noqa: N818 - public API name
-    """The points given to :func:`sofia_detector.detect` cannot be a point cloud."""
+    """The points given to :func:`sofia_detector.detect` cannot be a point cloud: (what)."""
 
-    def __init__(self, what: str) -> None:
-        super().__init__(f"bad point cloud: {what}")
+    template = "bad point cloud: {}"
 
 
 class UnreadableFile(DetectorError):  # noqa: N818 - public API name
-    """A cloud file could not be read."""
+    """A cloud file could not be read: (path, what)."""
 
-    def __init__(self, path: object, what: str) -> None:
-        super().__init__(f"{path}: {what}")
+    template = "{}: {}"
 
 
 class DetectorBusy(DetectorError):  # noqa: N818 - public API name
-    """Too many detect queries are already waiting."""
+    """Too many detect queries are already waiting: (waiting)."""
 
-    def __init__(self, waiting: int) -> None:
-        super().__init__(f"busy, retry: {waiting} detect queries are already waiting for the detector")
+    template = "busy, retry: {} detect queries are already waiting for the detector"
 
 
 class TransformUnavailable(DetectorError):  # noqa: N818 - public API name
-    """A camera-frame cloud cannot be mapped into the base frame."""
+    """A camera-frame cloud cannot be mapped into the base frame: (what)."""
 
-    def __init__(self, what: str) -> None:
-        super().__init__(f"cannot map the camera-frame cloud into the base frame: {what}")
+    template = "cannot map the camera-frame cloud into the base frame: {}"
 
 
 class BadTransformFile(DetectorError):  # noqa: N818 - public API name
-    def __init__(self, path: object, what: str) -> None:
-        super().__init__(f"transform file {path}: {what}")
+    """(path, what)."""
+
+    template = "transform file {}: {}"
 
 
 class WrongCloud(DetectorError):  # noqa: N818 - public API name
-    """A cloud without a board that looks like a mistake: millimetres, or the camera's frame."""
+    """A cloud without a board that looks like a mistake (millimetres, camera frame): (source, what)."""
 
-    def __init__(self, source: object, what: str) -> None:
-        super().__init__(f"{source}: no board found, and {what}")
+    template = "{}: no board found, and {}"
 
 
 class UnknownFrame(DetectorError):  # noqa: N818 - public API name

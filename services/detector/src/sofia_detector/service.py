@@ -1,19 +1,10 @@
 """``sofia detector serve``: the detector on the bus.
 
-- subscribes ``Keys(robot).points`` (CDR PointCloud2, base frame) and ``Keys(robot).camera_points``
-  (camera frame: mapped with the flange pose at the cloud's stamp and ``T_flange_cam``);
-- publishes one JSON :class:`Detection` per processed cloud on ``Keys(robot).detections``, stamped
-  with the cloud's stamp, and a :class:`PickTarget` for its first allowed object confident enough
-  (:class:`~.pick.Picks`) on ``Keys(robot).pick_target``;
-- queryable ``Keys(robot).detect``: a CDR PointCloud2 payload gets the detection of that cloud, an
-  empty one the detection of the latest cloud, a bad one an error reply;
-- ``Keys(robot).status("detector")``: :class:`ServiceStatus` every second, and queryable.
-
-Callbacks only hand data over, to one :class:`~.worker.WorkQueue` (the newest ``backlog`` clouds,
-older ones dropped and counted; up to ``QUERIES_MAX`` queries, more answered "busy, retry" at once);
-a cloud in shared memory is read in place (:class:`~sofia_runtime.shm.SharedReader`, ``shm_read``).
-One worker, woken by each arrival, answers queries first; a camera cloud waits for the flange pose
-of its stamp (up to ``POSE_WAIT_S``). Dropped clouds make the status ``degraded`` (:class:`DropLog`).
+Subscribes ``Keys(robot).points`` (base frame) and ``camera_points`` (mapped with the flange pose at
+the stamp and ``T_flange_cam``); publishes a :class:`Detection` per cloud on ``detections`` and a
+:class:`PickTarget` (:class:`~.pick.Picks`) on ``pick_target``; the ``detect`` queryable answers a
+cloud payload with its detection, an empty one with the latest; status every second. Callbacks
+only hand over to one :class:`~.worker.WorkQueue` (shared-memory clouds read in place).
 """
 
 from __future__ import annotations

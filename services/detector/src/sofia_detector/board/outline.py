@@ -1,10 +1,8 @@
 """Rectangles around 2-D point sets, and where the board lies in its plane.
 
-The board top is the largest connected patch of points at height ~0. Its outline gives the board
-yaw (the rectangle of least area: one of its sides lies along an edge of the convex hull) and its
-centre: the midpoint of opposite edges (whatever the width of the rim around the fields) where
-both are the board's edges, a drop to the table beside them; half the fields and a rim inside the
-one edge seen where the other side is cut short (missing depth, the image border, the fingers).
+The board top's outline gives the yaw (least-area rectangle) and the centre: the midpoint of
+opposite edges where both drop to the table; half the fields and a rim inside the one edge seen
+where the other is cut short (missing depth, the image border, the fingers).
 """
 
 from __future__ import annotations

@@ -1,10 +1,8 @@
 """Real depth on the organized grid: flying pixels, depth noise, holes bridged by colour.
 
-A stereo camera mixes foreground and background where a matching window straddles a depth edge:
-those flying pixels float between the two surfaces, each at its own depth. A point on a real
-surface has neighbours on the same surface within a few pixel spacings in 3D; a flying pixel
-seldom has two. Dark surfaces return no depth at all in blobs; their colour is still seen, so
-missing pixels of an object's colour join its pieces.
+A flying pixel (stereo matching across a depth edge) seldom has two neighbours within a few pixel
+spacings in 3D; a point on a real surface has. Dark surfaces lose depth in blobs but keep their
+colour, so missing pixels of an object's colour join its pieces.
 """
 
 from __future__ import annotations

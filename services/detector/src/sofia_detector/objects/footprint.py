@@ -1,10 +1,8 @@
 """One object from its points: footprint rectangle, top height, centre without one-sided bias.
 
-The camera sees an object from above and one side. Boxes and cylinders have vertical sides, so
-their visible points (top and near sides) project onto the footprint exactly: the minimum-area
-rectangle of the projected points is the footprint. A curved top (a ball) hides its far side, so
-its footprint centre is the apex of ``h = a + b x + c y + d (x^2 + y^2)`` fitted to the top cap,
-which is symmetric about the centre whatever the viewing direction.
+Vertical sides project onto the footprint, so the minimum-area rectangle of the projected points
+is it; a curved top (a ball) is centred on the apex of ``h = a + b x + c y + d (x^2 + y^2)``
+fitted to its top cap, symmetric about the centre whatever the viewing direction.
 """
 
 from __future__ import annotations

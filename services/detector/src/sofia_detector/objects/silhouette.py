@@ -1,13 +1,9 @@
-"""An object with almost no depth, placed from its colour silhouette and its height.
+"""An object with almost no depth (depth on a sliver only), placed from its colour silhouette.
 
-A black object in the second imager's shadow (or one absorbing the projector's pattern) returns
-depth only along a sliver or two: too thin to be an object by themselves. The colour camera still
-sees the whole object. For an object with vertical sides and a top of height h, the rays through
-its silhouette cut the plane of the top (z = h) in the top itself plus, towards the camera, the
-band seen on the near sides; they cut the board (z = 0) in the near part of the base plus the top
-pushed away from the camera. Both cover the footprint, and only the footprint: their intersection
-is it, whatever the viewing direction. The rays come from a pinhole camera fitted to the organized
-cloud around the object (pixels and their board-frame points), the height from the slivers.
+For vertical sides and a top at height h, the silhouette's rays cut the plane z = h and the board
+z = 0 in two regions that both cover the footprint and only it: their intersection is the
+footprint. The rays come from a pinhole camera fitted to the organized cloud around the object,
+the height from the slivers.
 """
 
 from __future__ import annotations

@@ -1,9 +1,6 @@
-"""How much of an object is in view: the image border, occluders and holes around its silhouette.
-
-Along the silhouette of a fully seen object the camera sees the board (or the object's own stereo
-shadow, in the board's colour). Where the silhouette runs along the image border, along something
-nearer to the camera (the fingers) or along missing depth of the object's own colour, the object
-goes on out of view: its centre from the visible part is biased.
+"""How much of an object is in view: where its silhouette runs along the image border, something
+nearer (the fingers) or missing depth of its own colour, the object goes on out of view and the
+centre of its visible part is biased; elsewhere the board (or its stereo shadow) borders it.
 """
 
 from __future__ import annotations

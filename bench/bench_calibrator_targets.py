@@ -27,6 +27,7 @@ from sofia_calibrator.eye_to_hand import SETUPS, calibrate_eye_to_hand, calibrat
 from sofia_calibrator.fitting.diagnostics import error6
 from sofia_calibrator.fitting.simulate import (
     UNMODELLED_NOISE,
+    ball_cloud,
     make_eye_to_hand,
     make_problem,
     unmodelled_eye_to_hand,
@@ -169,17 +170,6 @@ def coverage_table(sets: int, seed: int) -> None:
                       f"{100 * fa / sets:.1f} % |")  # fmt: skip
 
 
-def ball_views(centre: np.ndarray, radius: float, rng: np.random.Generator, n: int = 1500) -> np.ndarray:
-    """(n, 3) a ball seen from the origin (camera frame, m): the surface within 70 deg of facing the
-    camera, depth noise along the ray of 1 mm at 0.5 m growing with the square of the depth."""
-    d = rng.standard_normal((20 * n, 3))
-    d /= np.linalg.norm(d, axis=1, keepdims=True)
-    pts = centre + radius * d
-    facing = -np.einsum("ni,ni->n", d, pts / np.linalg.norm(pts, axis=1, keepdims=True))
-    pts = pts[facing > np.cos(np.radians(70))][:n]
-    return np.asarray(pts * (1 + rng.standard_normal(len(pts)) * 1e-3 * pts[:, 2] / 0.5**2)[:, None])
-
-
 def synthetic_radius(trials: int, rng: np.random.Generator) -> str:
     """Sphere centres with the radius unknown: one shared radius (joint, median) vs a radius per
     view vs the radius given, on synthetic 25 mm balls at 0.45-0.9 m (10 views per set)."""
@@ -187,7 +177,7 @@ def synthetic_radius(trials: int, rng: np.random.Generator) -> str:
     err: dict[str, list[float]] = {"joint": [], "median": [], "per view": [], "given": []}
     for _ in range(trials):
         truth = np.c_[rng.uniform(-0.12, 0.12, (10, 2)), rng.uniform(0.45, 0.9, 10)]
-        clouds = [ball_views(c, 0.025, rng) for c in truth]
+        clouds = [ball_cloud(c, 0.025, rng) for c in truth]
         fits = {"joint": shared_spheres(clouds, inlier_m), "median": shared_spheres(clouds, inlier_m, "median"),
                 "per view": [find_sphere(c, None, inlier_m) for c in clouds],
                 "given": [find_sphere(c, 0.025, inlier_m) for c in clouds]}  # fmt: skip

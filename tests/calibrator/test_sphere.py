@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from sofia_calibrator import calibrate
 from sofia_calibrator.errors import InputMismatch, ParseError
-from sofia_calibrator.fitting.simulate import make_problem
+from sofia_calibrator.fitting.simulate import ball_cloud, make_problem
 from sofia_calibrator.targets import SphereNotFound, find_sphere, read_cloud, read_euler_poses, sphere_centres
 
 REGHEC = Path(os.environ.get("REGHEC_DIR", "/nonexistent")) / "data" / "Sphere"
@@ -107,18 +107,6 @@ def test_reghec_real_sphere_set() -> None:
     assert len(radii) == 1 and abs(radii.pop() - 0.0484) < 0.0005
 
 
-def _ray_noise_cap(centre: np.ndarray, radius: float, rng: np.random.Generator, n: int = 1500) -> np.ndarray:
-    """(n, 3) a ball as a D435 sees it from the origin: the surface within 70 deg of facing the
-    camera, depth noise along the ray of 1 mm at 0.5 m growing with the square of the depth."""
-    d = rng.standard_normal((20 * n, 3))
-    d /= np.linalg.norm(d, axis=1, keepdims=True)
-    pts = centre + radius * d
-    facing = -np.einsum("ni,ni->n", d, pts / np.linalg.norm(pts, axis=1, keepdims=True))
-    pts = pts[facing > np.cos(np.radians(70))][:n]
-    sigma = 1e-3 * (pts[:, 2] / 0.5) ** 2
-    return np.asarray(pts * (1 + rng.standard_normal(len(pts)) * sigma / pts[:, 2])[:, None])
-
-
 def test_one_radius_shared_by_the_views_beats_a_radius_per_view() -> None:
     """A 25 mm ball at 0.45-0.9 m in 3 sets of 10 views: one radius fitted jointly to all the
     views puts the centres nearer the truth than a radius fitted in each view (measured: 0.89 vs
@@ -130,7 +118,7 @@ def test_one_radius_shared_by_the_views_beats_a_radius_per_view() -> None:
     err: dict[str, list[float]] = {"per-view": [], "median": [], "joint": []}
     for _ in range(3):
         truth = np.c_[rng.uniform(-0.12, 0.12, (10, 2)), rng.uniform(0.45, 0.9, 10)]
-        clouds = [_ray_noise_cap(c, 0.025, rng) for c in truth]
+        clouds = [ball_cloud(c, 0.025, rng) for c in truth]
         fits = {"per-view": [find_sphere(c, None, inlier_m) for c in clouds],
                 "median": shared_spheres(clouds, inlier_m, method="median"),
                 "joint": shared_spheres(clouds, inlier_m)}  # fmt: skip
@@ -141,7 +129,7 @@ def test_one_radius_shared_by_the_views_beats_a_radius_per_view() -> None:
     rms = {k: 1e3 * float(np.sqrt(np.mean(np.square(v)))) for k, v in err.items()}
     assert rms["joint"] < 0.8 * rms["per-view"] and rms["joint"] < 1.3, rms
     assert rms["median"] < rms["per-view"], rms
-    p_cam, sigma = sphere_centres([_ray_noise_cap(c, 0.025, rng) for c in truth[:4]], inlier_m=inlier_m)
+    p_cam, sigma = sphere_centres([ball_cloud(c, 0.025, rng) for c in truth[:4]], inlier_m=inlier_m)
     assert p_cam.shape == sigma.shape == (4, 3) and np.all((sigma > 0) & (sigma < 2e-3))
 
 

@@ -111,7 +111,7 @@ class BallEye:
         return Frame(max(stamp_ns, self.arm.clock_ns), r.points_cam.astype(np.float64), r.rgb)
 
 
-class TableBallEye:
+class TableBallEye(SheetEye):
     """A D435 on the flange of ``arm`` at the true ``T_flange_cam`` (4, 4) seeing a coloured ball
     of ``radius_m`` lying on the table at ``p_ball_base`` (3,), base frame, metres."""
 
@@ -131,11 +131,3 @@ class TableBallEye:
         self.camera = Camera()
         self.rng = np.random.default_rng(seed)
         self.frames = 0
-
-    def frame_after(self, stamp_ns: int, timeout_s: float) -> Frame | None:
-        from sofia_replay.synth.camera import render
-
-        T_base_cam = self.arm.T_base_flange() @ self.T_flange_cam
-        r = render(self.scene[0], self.scene[1], T_base_cam, self.camera, self.rng)
-        self.frames += 1
-        return Frame(max(stamp_ns, self.arm.clock_ns), r.points_cam.astype(np.float64), r.rgb)

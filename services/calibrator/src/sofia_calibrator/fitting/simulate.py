@@ -187,3 +187,15 @@ def unmodelled_eye_to_hand(kind: str, n: int, rng: np.random.Generator) -> EyeTo
     pr.T_base_flange[:, :3, 3] += robot_errors
     pr.p_cam = pr.p_cam + camera_errors
     return pr
+
+
+def ball_cloud(centre: np.ndarray, radius: float, rng: np.random.Generator, n: int = 1500) -> np.ndarray:
+    """(n, 3) a ball of ``radius`` at ``centre`` (3,) as a D435 at the origin sees it (camera frame,
+    m): the surface within 70 deg of facing the camera, depth noise along the ray of 1 mm at 0.5 m
+    growing with the square of the depth."""
+    d = rng.standard_normal((20 * n, 3))
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    pts = centre + radius * d
+    facing = -np.einsum("ni,ni->n", d, pts / np.linalg.norm(pts, axis=1, keepdims=True))
+    pts = pts[facing > np.cos(np.radians(70))][:n]
+    return np.asarray(pts * (1 + rng.standard_normal(len(pts)) * 1e-3 * pts[:, 2] / 0.5**2)[:, None])

@@ -124,3 +124,23 @@ def test_sofia_up_runs_the_arm_when_asked() -> None:
         s.name: s for s in default_specs(parser.parse_args(["--services", "arm", "--robot-ip", "172.16.0.2"]))
     }
     assert specs["arm"].args == ["arm", "serve", "--robot-ip", "172.16.0.2"]
+
+
+def test_the_planner_keeps_to_the_joint_limits_of_the_robot_driven() -> None:
+    """An FR3 (franky-sim's robot, `arm serve --sim`) turns joint 1 less far than a Panda: a flange
+    pose inside the box (pointing down) that the Panda planner reaches from the start with joint 1 at
+    -2.80 rad is planned within the FR3's limits, or refused, never at -2.80."""
+    from sofia_arm.poses import Reach
+    from sofia_arm.poses import solve_ik as plan_ik
+    from sofia_schemas.kinematics import joint_limits
+
+    fr3_lo, fr3_hi = joint_limits("fr3")
+    reach = Safety(ArmConfig(model="fr3")).planner_reach(Reach())
+    np.testing.assert_allclose(reach.q_lo, fr3_lo + reach.joint_margin)
+    np.testing.assert_allclose(reach.q_hi, fr3_hi - reach.joint_margin)
+    q = np.array([-2.8, -0.965, 0.724, -0.707, 2.378, 0.695, 1.769])  # Panda's limits, not the FR3's
+    assert np.all(q >= Q_MIN) and np.all(q <= Q_MAX) and q[0] < fr3_lo[0]
+    ik = plan_ik(panda_fk(q), q, reach)
+    assert not ik.ok or np.all((ik.q >= reach.q_lo) & (ik.q <= reach.q_hi)), ik.q
+    panda = plan_ik(panda_fk(q), q, Reach())
+    assert panda.ok and panda.q[0] < fr3_lo[0]  # the Panda's limits would have sent joint 1 past the FR3's

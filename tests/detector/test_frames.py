@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 from sofia_detector import BadTransformFile, TransformUnavailable
-from sofia_detector.frames import FlangeHistory, camera_to_base, load_transform_file
+from sofia_detector.frames import FlangeHistory, load_transform_file, points_to_base
 from sofia_replay.synth import DEFAULT_T_FLANGE_CAM
 from sofia_schemas.messages import FlangePose
 from sofia_schemas.transforms import make_transform, matrix_to_quat_xyzw
@@ -92,10 +92,10 @@ def test_bad_transform_files(tmp_path: Path, text: str, needle: str) -> None:
         load_transform_file(tmp_path / "missing.yaml")
 
 
-def test_camera_to_base_matches_the_renderer(scenes) -> None:
+def test_points_to_base_matches_the_renderer(scenes) -> None:
     f = scenes["box"].frame
     T_base_cam = f.T_base_flange @ f.T_flange_cam
-    points = camera_to_base(f.render.points_cam, T_base_cam)
+    points = points_to_base(f.render.points_cam, T_base_cam)
     assert points.shape == f.points_base.shape
     assert np.allclose(points, f.points_base, atol=1e-5, equal_nan=True)
     assert np.allclose(make_transform(T_base_cam[:3, 3], matrix_to_quat_xyzw(T_base_cam[:3, :3])), T_base_cam)

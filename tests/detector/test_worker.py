@@ -9,13 +9,14 @@ import tracemalloc
 
 import numpy as np
 import pytest
-from sofia_detector.frames import camera_to_base
+from sofia_detector.frames import points_to_base
 from sofia_detector.service import Detector, ServiceConfig
-from sofia_detector.worker import CloudJob, DropLog, WorkQueue, points_to_base
+from sofia_detector.worker import CloudJob, DropLog, WorkQueue
 from sofia_replay.synth import DEFAULT_T_FLANGE_CAM
 from sofia_runtime.zenoh_config import ZenohOptions
 from sofia_schemas import pointcloud
 from sofia_schemas.messages.calibration import CameraCorrection
+from sofia_schemas.transforms import apply
 
 STAMP_NS = 1_700_000_000_000_000_000
 
@@ -103,7 +104,7 @@ def test_camera_points_reach_the_base_frame_in_one_array(scenes, correction: Cam
     finally:
         tracemalloc.stop()
     assert peak < points_base.nbytes + 100_000, (peak, points_base.nbytes)  # the result alone
-    expected = camera_to_base(correction.apply(points_cam), T_base_cam)
+    expected = apply(T_base_cam, correction.apply(points_cam))
     assert points_base.shape == points_cam.shape
     np.testing.assert_allclose(points_base, expected, atol=2e-6, equal_nan=True)
 

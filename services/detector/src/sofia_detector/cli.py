@@ -100,28 +100,8 @@ def _summary(fc: FileCloud, det: Detection) -> str:
     return "\n".join(lines)
 
 
-def _record(path: Path, fc: FileCloud, det: Detection, board_digest: str) -> dict[str, object]:
-    return {
-        "file": str(path),
-        "source": fc.source,
-        "index": fc.index,
-        "stamp_ns": det.stamp_ns,
-        "status": det.status,
-        "objects": [o.model_dump(mode="json") for o in det.objects],
-        "timings_ms": det.timings_ms,
-        "board_normal": det.board_normal,
-        "board_center": det.board_center,
-        "transform": det.transform,
-        "detail": det.detail,
-        "board": board_digest,
-    }
-
-
-def _plot_path(out: Path, n: int, total_hint: int) -> Path:
-    """``out`` for a single cloud; else ``OUT-01.png``, ``OUT-02.png``, ... numbered from 1 like the scenes."""
-    return (
-        out if total_hint == 1 and n == 0 else out.with_name(f"{out.stem}-{n + 1:02d}{out.suffix or '.png'}")
-    )
+RECORD_FIELDS = {"stamp_ns", "status", "objects", "board_normal", "board_center", "timings_ms", "transform",
+                 "source", "detail"}  # fmt: skip
 
 
 def _detect_files(args: argparse.Namespace) -> int:
@@ -146,12 +126,24 @@ def _detect_all(args: argparse.Namespace) -> int:
                     raise WrongCloud(fc.source, why)
                 if fc.transform:
                     det = det.model_copy(update={"transform": fc.transform})
-                rec = _record(path, fc, det, board.digest)
-                print(json.dumps(rec) if args.json else _summary(fc, det), flush=True)
+                rec = {
+                    "file": str(path),
+                    "index": fc.index,
+                    **det.model_dump(mode="json", include=RECORD_FIELDS),
+                }
+                print(
+                    json.dumps(rec | {"board": board.digest}) if args.json else _summary(fc, det), flush=True
+                )
                 if args.plot:
                     from .plot import plot_detection
 
-                    out = _plot_path(args.plot, n_clouds, 1 if single else 2)
+                    out = (
+                        args.plot
+                        if single
+                        else args.plot.with_name(
+                            f"{args.plot.stem}-{n_clouds + 1:02d}{args.plot.suffix or '.png'}"
+                        )
+                    )  # OUT-01.png, OUT-02.png, ... numbered from 1 like the scenes
                     plot_detection(
                         fc.points, board, det, out, title=f"{out.stem}: {path.name}, cloud {fc.index + 1}"
                     )

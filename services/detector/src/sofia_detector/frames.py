@@ -13,10 +13,9 @@ import numpy as np
 from sofia_schemas.files import FileContentError, load_json_or_yaml
 from sofia_schemas.messages import FlangePose
 from sofia_schemas.messages.calibration import CameraCorrection
-from sofia_schemas.transforms import as_transforms, interpolate_poses, invert, make_transform
+from sofia_schemas.transforms import as_transforms, interpolate_poses, make_transform
 
 from .errors import BadTransformFile, TransformUnavailable
-from .geometry.points import change_frame, coords
 
 log = logging.getLogger(__name__)
 JUMP_BACK_NS = 1_000_000_000  # a pose this much older than the newest starts a new time line
@@ -51,11 +50,6 @@ def load_transform_file(path: str | Path) -> np.ndarray:
     return parse_transform(data, str(path))
 
 
-def pinned_transform(path: str | Path) -> tuple[np.ndarray, CameraCorrection]:
-    """``T_flange_cam`` and the camera correction of a saved calibration the user pins."""
-    return load_transform_file(path), load_correction_file(path)
-
-
 def load_correction_file(path: str | Path) -> CameraCorrection:
     """The ``camera_correction`` of a saved calibration (YAML or JSON); identity when it has none."""
     try:
@@ -63,21 +57,30 @@ def load_correction_file(path: str | Path) -> CameraCorrection:
     except (OSError, FileContentError):
         return CameraCorrection()  # load_transform_file reports the file's problem
     corr = data.get("camera_correction") if isinstance(data, dict) else None
-    if corr is None:
-        return CameraCorrection()
     try:
-        return CameraCorrection.model_validate(corr)
+        return CameraCorrection.model_validate({} if corr is None else corr)
     except ValueError as e:
         raise BadTransformFile(path, f"camera_correction: {e}") from None
 
 
-def camera_to_base(points_cam: np.ndarray, T_base_cam: np.ndarray) -> np.ndarray:
-    """Camera-frame points into the base frame.
+def points_to_base(
+    points_cam: np.ndarray, T_base_cam: np.ndarray, correction: CameraCorrection | None = None
+) -> np.ndarray:
+    """Measured camera-frame points into the base frame, the (affine) correction folded into one map.
 
-    points_cam: (..., 3) float, camera optical frame, metres (NaN kept). T_base_cam: (4, 4).
-    Returns (..., 3) float32 points_base (a strided view of a (3, ...) array).
-    """
-    return np.moveaxis(change_frame(coords(points_cam), invert(T_base_cam)), 0, -1)
+    points_cam: (..., 3) float (any strides: a view of the received bytes), camera optical frame,
+    metres, NaN kept. T_base_cam: (4, 4). Returns (..., 3) float32 points_base: the one array
+    allocated (no intermediate copy of the cloud)."""
+    A = np.eye(4)
+    if correction is not None:  # the affine map of CameraCorrection.apply, read off the basis
+        A[:3, 3] = correction.apply(np.zeros(3))
+        A[:3, :3] = (correction.apply(np.eye(3)) - A[:3, 3]).T
+    M = T_base_cam @ A
+    out = np.empty(points_cam.shape, np.float32)
+    with np.errstate(invalid="ignore", over="ignore"):
+        np.matmul(points_cam, M[:3, :3].T.astype(np.float32), out=out)
+        out += M[:3, 3].astype(np.float32)
+    return out
 
 
 class FlangeHistory:

@@ -7,6 +7,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from scipy.stats import binned_statistic_2d
 from sofia_schemas import Board
 from sofia_schemas.messages import Detection
 
@@ -70,11 +71,7 @@ def _height_map(xyz: np.ndarray, surface: float, limits: tuple[float, float, flo
     ``limits`` (x0, x1, y0, y1); NaN where there is no point."""
     x0, x1, y0, y1 = limits
     bins = (max(1, round((y1 - y0) / CELL_M)), max(1, round((x1 - x0) / CELL_M)))
-    rng = ((y0, y1), (x0, x1))
-    total, _, _ = np.histogram2d(xyz[1], xyz[0], bins=bins, range=rng, weights=xyz[2] - surface)
-    count, _, _ = np.histogram2d(xyz[1], xyz[0], bins=bins, range=rng)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        return np.where(count > 0, total / count, np.nan)
+    return binned_statistic_2d(xyz[1], xyz[0], xyz[2] - surface, bins=bins, range=((y0, y1), (x0, x1)))[0]
 
 
 def plot_detection(

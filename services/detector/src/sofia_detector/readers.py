@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -12,20 +13,20 @@ from sofia_replay.errors import RecordingError
 from sofia_schemas.keys import TOPIC_FLANGE_POSE, TOPIC_POINTS
 
 from .errors import TransformUnavailable, UnreadableFile
-from .frames import FlangeHistory, camera_to_base
+from .frames import FlangeHistory, points_to_base
 
 SUFFIXES = (".mcap", ".pcd", ".ply", ".npy")
 
 
 @dataclass(frozen=True)
 class FileCloud:
-    """One cloud of a file: points (N, 3) or (H, W, 3) in ``frame_id`` and their colours (same
-    shape, uint8) when the file has them; ``index`` counts from 0."""
+    """One cloud of a file: points (N, 3) or (H, W, 3) in the board's frame and their colours (same
+    shape, uint8) when the file has them; ``index`` counts from 0; ``transform`` names the
+    ``T_flange_cam`` that mapped a camera-frame cloud."""
 
     index: int
     points: np.ndarray
     stamp_ns: int
-    frame_id: str
     source: str
     transform: str | None = None
     rgb: np.ndarray | None = None
@@ -33,14 +34,8 @@ class FileCloud:
 
 def pcd_grid(head: bytes) -> tuple[int, int]:
     """(HEIGHT, WIDTH) of a PCD header ((1, 0) when absent)."""
-    dims = {"WIDTH": 0, "HEIGHT": 1}
-    for line in head.split(b"\n"):
-        parts = line.split()
-        if len(parts) == 2 and parts[0].decode(errors="replace") in dims and parts[1].isdigit():
-            dims[parts[0].decode()] = int(parts[1])
-        if line.startswith(b"DATA"):
-            break
-    return dims["HEIGHT"], dims["WIDTH"]
+    dims = dict(re.findall(rb"^(WIDTH|HEIGHT)[ \t]+(\d+)\s*$", head.split(b"\nDATA")[0], re.MULTILINE))
+    return int(dims.get(b"HEIGHT", 1)), int(dims.get(b"WIDTH", 0))
 
 
 def _open3d_points(path: Path, magic: bytes) -> tuple[np.ndarray, np.ndarray | None]:
@@ -93,13 +88,13 @@ def iter_file_clouds(
     if suffix not in SUFFIXES:
         raise UnreadableFile(path, f"unknown cloud format {suffix!r}; expected one of {SUFFIXES}")
     if suffix == ".npy":
-        yield FileCloud(0, _npy_points(path), 0, frame_id, str(path))
+        yield FileCloud(0, _npy_points(path), 0, str(path))
         return
     if suffix in (".pcd", ".ply"):
         points, rgb = _open3d_points(path, b"FIELDS" if suffix == ".pcd" else b"ply")
         if points.shape[0] == 0:
             raise UnreadableFile(path, "holds no points")
-        yield FileCloud(0, points, 0, frame_id, str(path), rgb=rgb)
+        yield FileCloud(0, points, 0, str(path), rgb=rgb)
         return
     try:
         yield from _mcap_clouds(path, frame_id, T_flange_cam, transform_name)
@@ -113,20 +108,18 @@ def _mcap_clouds(
     flange: FlangeHistory | None = None
     index = 0
     for topic, _log_ns, cloud in iter_clouds(path):
-        source = f"{path}:{topic}"
-        if topic == TOPIC_POINTS or cloud.frame_id == frame_id or not cloud.frame_id:
-            yield FileCloud(index, cloud.xyz(), cloud.stamp_ns, frame_id, source, rgb=cloud.rgb())
-        elif T_flange_cam is not None:
+        points, transform = cloud.xyz(), None
+        if topic != TOPIC_POINTS and cloud.frame_id not in (frame_id, ""):  # a camera-frame cloud
+            if T_flange_cam is None:
+                continue
             if flange is None:
                 flange = FlangeHistory(maxlen=1_000_000)
                 for stamp_ns, pose in iter_flange_poses(path, TOPIC_FLANGE_POSE):
                     flange.add(pose.stamp_ns or stamp_ns, pose.matrix())
             try:
-                T_base_cam = flange.at(cloud.stamp_ns) @ T_flange_cam
+                points = points_to_base(points, flange.at(cloud.stamp_ns) @ T_flange_cam)
             except TransformUnavailable:
                 continue
-            points = camera_to_base(cloud.xyz(), T_base_cam)
-            yield FileCloud(index, points, cloud.stamp_ns, frame_id, source, transform_name, cloud.rgb())
-        else:
-            continue
+            transform = transform_name
+        yield FileCloud(index, points, cloud.stamp_ns, f"{path}:{topic}", transform, cloud.rgb())
         index += 1

@@ -31,12 +31,12 @@ from sofia_schemas.ros2.encoding import decode_flange, typed_cloud
 
 from .detect import detect
 from .errors import DetectorBusy, DetectorError, TransformUnavailable, UnknownFrame
-from .frames import FlangeHistory, parse_transform, pinned_transform
+from .frames import FlangeHistory, load_correction_file, load_transform_file, parse_transform, points_to_base
 from .pick import Picks
 from .selection import select, split_selection
 from .service_config import ServiceConfig
 from .warmup import warm_up
-from .worker import BAD, UNMAPPED, CloudJob, DropLog, WorkQueue, points_to_base
+from .worker import BAD, UNMAPPED, CloudJob, DropLog, WorkQueue
 
 log = logging.getLogger("sofia.detector")
 STATUS_PERIOD_S = 1.0
@@ -59,7 +59,8 @@ class Detector:
         self.result_stamp_ns = -1  # stamp of the calibrator result in use
         self.stamps = StampCheck()  # future poses and results, live results older than this start
         if config.transform_file is not None:
-            self.T_flange_cam, self.correction = pinned_transform(config.transform_file)
+            self.T_flange_cam = load_transform_file(config.transform_file)
+            self.correction = load_correction_file(config.transform_file)
             self.transform_name = f"file {config.transform_file}"
         self.latest: Detection | None = None
         self.picks = Picks(config.pick)

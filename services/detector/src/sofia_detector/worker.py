@@ -11,9 +11,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Generic, TypeVar
 
-import numpy as np
 from sofia_schemas import pointcloud
-from sofia_schemas.messages.calibration import CameraCorrection
 
 Q = TypeVar("Q")
 QUERIES_MAX = 64  # detect queries waiting for the worker; beyond, they are answered "busy, retry" at once
@@ -178,32 +176,3 @@ class DropLog:
             return "ok", ""
         parts = [f"{reason}: {n} dropped (last: {msg})" for reason, n, msg in recent]
         return "degraded", "; ".join(parts)
-
-
-def correction_matrix(correction: CameraCorrection) -> np.ndarray:
-    """(4, 4) affine ``A``: corrected camera point = ``A[:3, :3] @ p_measured + A[:3, 3]`` (every
-    :class:`CameraCorrection` model is affine)."""
-    A = np.eye(4)
-    if correction.model == "ray_scale":
-        A[:3, :3] *= correction.depth_scale
-    elif correction.model in ("depth_scale", "depth_scale_offset"):
-        A[2, 2] = correction.depth_scale
-        if correction.model == "depth_scale_offset":
-            A[2, 3] = correction.depth_offset_m
-    return A
-
-
-def points_to_base(
-    points_cam: np.ndarray, T_base_cam: np.ndarray, correction: CameraCorrection
-) -> np.ndarray:
-    """Measured camera-frame points into the base frame, the correction folded into one affine map.
-
-    points_cam: (..., 3) float (any strides: a view of the received bytes), camera optical frame,
-    metres, NaN kept. T_base_cam: (4, 4). Returns (..., 3) float32 points_base: the one array
-    allocated (no intermediate copy of the cloud)."""
-    M = T_base_cam @ correction_matrix(correction)
-    out = np.empty(points_cam.shape, np.float32)
-    with np.errstate(invalid="ignore", over="ignore"):
-        np.matmul(points_cam, M[:3, :3].T.astype(np.float32), out=out)
-        out += M[:3, 3].astype(np.float32)
-    return out

@@ -66,7 +66,7 @@ def _obj(colour: str | None) -> DetectedObject:
 
 def test_colour_selection_queries() -> None:
     sel, cloud = split_selection(b'{"colour": "yellow"}')
-    assert sel is not None and sel.colour == "yellow" and cloud == b""
+    assert sel == "yellow" and cloud == b""
     assert split_selection(b"\x00\x01\x00\x00rest") == (None, b"\x00\x01\x00\x00rest")  # a CDR cloud
     assert split_selection(b"{not cdr}") == (None, b"{not cdr}")  # left to the cloud decoder
     det = Detection(stamp_ns=1, frame_id="panda_link0", status="ok", objects=[_obj("green"), _obj("yellow")])

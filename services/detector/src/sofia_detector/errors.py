@@ -50,6 +50,12 @@ class WrongCloud(DetectorError):  # noqa: N818 - public API name
     template = "{}: no board found, and {}"
 
 
+class BadSelection(DetectorError):  # noqa: N818 - public API name
+    """A detect query's JSON selection cannot be understood: (what)."""
+
+    template = "bad detect selection: {}"
+
+
 class UnknownFrame(DetectorError):  # noqa: N818 - public API name
     """A cloud whose ``header.frame_id`` is neither the base frame nor a known camera frame."""
 

@@ -71,14 +71,12 @@ class Detector:
         self._lock = threading.Lock()
 
     # --- callbacks: hand over only -------------------------------------
-    def on_points(self, sample: zenoh.Sample) -> None:
-        if typed_cloud(sample, self._error):
-            self.work.put_cloud(CloudJob(self.shared.received(sample)[0], False, str(sample.key_expr)))
-
-    def on_camera_points(self, sample: zenoh.Sample) -> None:
+    def on_cloud(self, sample: zenoh.Sample, camera: bool = False) -> None:
+        """A cloud on ``points`` (base frame) or, ``camera``, on ``camera_points``."""
         if typed_cloud(sample, self._error):
             payload, attachment = self.shared.received(sample)
-            self.work.put_cloud(CloudJob(payload, True, str(sample.key_expr), correction_applied(attachment)))
+            corrected = camera and correction_applied(attachment)
+            self.work.put_cloud(CloudJob(payload, camera, str(sample.key_expr), corrected))
 
     def on_query(self, query: zenoh.Query) -> None:
         if waiting := self.work.put_query(query):  # refused: answered here at once, never silence
@@ -160,9 +158,10 @@ class Detector:
                     f"cloud in frame {cloud.frame_id!r} and no flange->camera transform: start with "
                     "--transform FILE or run the calibrator"
                 )
-            if corrected:  # the producer applied the correction: it is not applied twice
-                corr = CameraCorrection()
-            points = points_to_base(points, self.flange.at(cloud.stamp_ns) @ T_flange_cam, corr)
+            # a correction the producer applied already is not applied twice
+            points = points_to_base(
+                points, self.flange.at(cloud.stamp_ns) @ T_flange_cam, None if corrected else corr
+            )
         t0 = time.perf_counter()
         det = detect(
             points, self.board, self.config.params, stamp_ns=cloud.stamp_ns, source=key, rgb=cloud.rgb()
@@ -258,8 +257,8 @@ def main(config: ServiceConfig) -> int:
         service = Detector(config, publish)
         took = warm_up(service.board, service.detect_payload, config.pick)  # before the first cloud
         declared: list[Any] = [
-            session.declare_subscriber(keys.points, service.on_points),
-            session.declare_subscriber(keys.camera_points, service.on_camera_points),
+            session.declare_subscriber(keys.points, service.on_cloud),
+            session.declare_subscriber(keys.camera_points, lambda s: service.on_cloud(s, camera=True)),
             session.declare_subscriber(keys.flange_pose, service.on_flange_pose),
             session.declare_subscriber(
                 keys.calibration_result, lambda s: service.on_calibration(s, live=True)

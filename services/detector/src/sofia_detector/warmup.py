@@ -15,9 +15,7 @@ from sofia_schemas.messages import Detection
 from sofia_schemas.ros2.encoding import decode_flange
 from sofia_schemas.rosmsg import encode_flange_pose
 
-from .board.plane import fit_plane
-from .depth.clean import bridge, consistent_at
-from .geometry.points import change_frame, points_in_frame
+from .detect import detect
 from .pick import PickParams, first_pick
 
 log = logging.getLogger(__name__)
@@ -56,47 +54,42 @@ def warm_scene(board: Board) -> tuple[np.ndarray, np.ndarray]:
     return points, rgb
 
 
-def compile_kernels() -> None:
-    """Compile (or load from numba's cache) every kernel for the layouts a detection passes: read-only
-    strided views of a received cloud, arrays, every k-th pixel."""
-    two = np.zeros((6, 6), dtype=bool)
-    two[1, 1] = two[4, 4] = True  # two components
-    xyz = np.zeros((3, 6, 6), dtype=np.float32)
-    change_frame(xyz, np.eye(4))
-    consistent_at(xyz, two, 0.01)
-    x, y = (v.ravel().astype(np.float32) for v in np.mgrid[0:6, 0:6])
-    fit_plane(x, y, np.zeros_like(x), (0.01,), 3)
-    received = np.frombuffer(bytes(6 * 6 * 16), dtype=np.float32).reshape(6, 6, 4)  # x, y, z, bgr0
-    plain = np.frombuffer(bytes(6 * 6 * 12), dtype=np.float32).reshape(6, 6, 3)  # without colours
-    for points in (received[..., :3], plain, xyz.transpose(1, 2, 0).copy(), xyz.transpose(1, 2, 0)[:, ::2]):
-        points_in_frame(points, np.eye(4))
-    received_rgb = received.view(np.uint8).reshape(6, 6, 16)[..., 14:11:-1]
-    for colours in (received_rgb, np.zeros((6, 12, 3), dtype=np.uint8)[:, ::2]):
-        bridge(two, ~two, colours, 0.25)
-
-
-def warm_payloads(board: Board) -> tuple[bytearray, bytes]:
-    """CDR PointCloud2 of :func:`warm_scene` (in the board's frame, with colours) and CDR
-    TransformStamped of an identity flange pose; the kernels compiled or loaded first."""
-    compile_kernels()
+def compile_kernels(board: Board | None = None) -> None:
+    """Compile (or load from numba's cache) every kernel for the layouts a detection passes: the
+    :func:`warm_scene` of ``board`` (default: :meth:`Board.default`) as arrays and as received bytes
+    (read-only strided views), with and without colours and missing depth, organized and flattened."""
+    board = board or Board.default()
     points, rgb = warm_scene(board)
-    cloud = pointcloud.encode_points(points, stamp_ns=1, frame_id=board.frame_id, rgb=rgb)
-    pose = FlangePose(stamp_ns=1, translation=(0.0, 0.0, 0.0), rotation_xyzw=(0.0, 0.0, 0.0, 1.0))
-    return cloud, encode_flange_pose(pose)
+    box = (rgb == BLUE).all(axis=-1)
+    cols = np.indices(WARM_SHAPE)[1]
+    holed = points.copy()
+    holed[:, :40] = np.nan  # the band the second imager does not see
+    holed[box & (np.abs(cols - cols[box].mean()) < 6)] = np.nan  # depth missing across the box
+    for cloud, colours in ((points, rgb), (holed, rgb), (holed, None)):
+        ok = np.isfinite(cloud).all(axis=-1)
+        for p, c in ((cloud, colours), (cloud[ok], None if colours is None else colours[ok])):
+            detect(p, board, rgb=c)
+            cdr = pointcloud.encode_points(p, stamp_ns=1, frame_id=board.frame_id, rgb=c)
+            received = pointcloud.decode(bytes(cdr))
+            detect(received.xyz(), board, rgb=received.rgb())
 
 
 def warm_up(board: Board, detect_payload: Callable[[bytes, bool, str], Detection], pick: PickParams) -> float:
-    """Run the per-cloud path once on :func:`warm_payloads`, publishing nothing; seconds taken.
+    """Run the per-cloud path once on :func:`warm_scene` (in the board's frame, with colours) and
+    decode a flange pose, the kernels compiled or loaded first, publishing nothing; seconds taken.
     A failure is logged, never raised."""
     t0 = time.perf_counter()
     try:
-        cloud, flange = warm_payloads(board)
-        det = detect_payload(bytes(cloud), False, "warm-up")
+        compile_kernels(board)
+        points, rgb = warm_scene(board)
+        det = detect_payload(bytes(pointcloud.encode_points(points, stamp_ns=1, frame_id=board.frame_id, rgb=rgb)),
+                             False, "warm-up")  # fmt: skip
         det.to_json_bytes()
         target = first_pick(det, pick)
         if target is not None:
             target.to_json_bytes()
-        decode_flange(flange).matrix()
+        pose = FlangePose(stamp_ns=1, translation=(0.0, 0.0, 0.0), rotation_xyzw=(0.0, 0.0, 0.0, 1.0))
+        decode_flange(encode_flange_pose(pose)).matrix()  # imports the ROS types a callback would
     except Exception as e:  # a warm-up must not keep the service from starting
         log.warning("warm-up failed (%s: %s); the first cloud will take longer", type(e).__name__, e)
         return time.perf_counter() - t0

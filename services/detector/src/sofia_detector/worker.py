@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import threading
 import time
-from collections import deque
+from collections import Counter, deque
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Generic, TypeVar
@@ -23,13 +23,14 @@ BAD = "bad clouds"
 
 @dataclass(slots=True)
 class CloudJob:
-    """Received cloud bytes (a view of Zenoh shared memory, or a copy); ``camera``: camera frame.
+    """Received cloud bytes (a view of Zenoh shared memory, or a copy); ``camera``: camera frame;
+    ``corrected``: the producer already applied the camera correction (Zenoh attachment).
     ``arrived_s`` (monotonic) starts the wait for the flange pose of ``pose_stamp_ns``."""
 
     payload: bytes | memoryview
     camera: bool
     key: str
-    corrected: bool = False  # the producer already applied the camera correction (Zenoh attachment)
+    corrected: bool = False
     arrived_s: float = field(default_factory=time.monotonic)
     pose_stamp_ns: int | None = None
     inspected: bool = False
@@ -63,15 +64,13 @@ class WorkQueue(Generic[Q]):
     ) -> None:
         if backlog < 1:
             raise ValueError(f"backlog must be at least 1 cloud, got {backlog}")
-        self.backlog = backlog
-        self.max_queries = max_queries
-        self.busy = 0  # queries refused because max_queries were waiting
+        self.backlog, self.max_queries = backlog, max_queries
+        self.drops = drops if drops is not None else DropLog()
+        self.received = self.busy = 0  # clouds put; queries refused because max_queries were waiting
         self._cond = threading.Condition()
         self._queries: deque[Q] = deque()
         self._clouds: deque[CloudJob] = deque()
         self._closed = False
-        self.received = 0
-        self.drops = drops if drops is not None else DropLog()
 
     def put_query(self, query: Q) -> int:
         """Queue ``query``; 0, or the number already waiting when it is refused (the caller answers it)."""
@@ -94,15 +93,14 @@ class WorkQueue(Generic[Q]):
             self.drops.add(STALE, f"a newer cloud arrived before it was detected (backlog {self.backlog})")
         return old
 
-    def poke(self) -> None:
-        """Wake the worker: something a waiting cloud depends on (a flange pose) arrived."""
+    def poke(self, closing: bool = False) -> None:
+        """Wake the worker: something a waiting cloud depends on (a flange pose) arrived, or the stop."""
         with self._cond:
-            self._cond.notify()
+            self._closed |= closing
+            self._cond.notify_all()
 
     def close(self) -> None:
-        with self._cond:
-            self._closed = True
-            self._cond.notify_all()
+        self.poke(closing=True)
 
     def get(self, pose_wait: Callable[[CloudJob], float]) -> Q | CloudJob | None:
         """Block until there is work: the oldest query, else the oldest cloud once
@@ -145,34 +143,23 @@ class DropLog:
 
     def __init__(self, window_s: float = DEGRADED_WINDOW_S) -> None:
         self.window_s = window_s
-        self.counts: dict[str, int] = {}
+        self.counts: Counter[str] = Counter()
         self._last: dict[str, tuple[float, str]] = {}
         self._lock = threading.Lock()
 
     def add(self, reason: str, message: str) -> None:
         with self._lock:
-            self.counts[reason] = self.counts.get(reason, 0) + 1
+            self.counts[reason] += 1
             self._last[reason] = (time.monotonic(), message)
 
     def count(self, reason: str) -> int:
         """Inputs dropped for ``reason`` so far."""
-        with self._lock:
-            return self.counts.get(reason, 0)
-
-    def recent(self) -> list[tuple[str, int, str]]:
-        """(reason, total count, last message) of the reasons with a drop within the window."""
-        now = time.monotonic()
-        with self._lock:
-            return [
-                (r, self.counts[r], msg)
-                for r, (t, msg) in sorted(self._last.items())
-                if now - t <= self.window_s
-            ]
+        return self.counts[reason]
 
     def state(self) -> tuple[str, str]:
         """``("degraded", what was dropped and why)`` while drops are recent, else ``("ok", "")``."""
-        recent = self.recent()
-        if not recent:
-            return "ok", ""
-        parts = [f"{reason}: {n} dropped (last: {msg})" for reason, n, msg in recent]
-        return "degraded", "; ".join(parts)
+        now = time.monotonic()
+        with self._lock:
+            recent = [f"{reason}: {self.counts[reason]} dropped (last: {msg})"
+                      for reason, (t, msg) in sorted(self._last.items()) if now - t <= self.window_s]  # fmt: skip
+        return ("degraded", "; ".join(recent)) if recent else ("ok", "")

@@ -14,7 +14,6 @@ import threading
 import time
 from typing import Any
 
-import numpy as np
 import zenoh
 from sofia_replay.preload import shm_enabled
 from sofia_runtime.client import fetch_latest
@@ -46,22 +45,19 @@ class Detector:
     """State and work of the service (no Zenoh declarations: those are in :func:`main`)."""
 
     def __init__(self, config: ServiceConfig, publish: dict[str, zenoh.Publisher]) -> None:
-        self.config = config
-        self.board = config.board
+        self.config, self.board = config, config.board
         self.publish = publish
         self.drops = DropLog()
         self.work: WorkQueue[zenoh.Query] = WorkQueue(config.backlog, self.drops)
         self.flange = FlangeHistory()
-        self.T_flange_cam: np.ndarray | None = None
-        self.correction = CameraCorrection()  # applied to camera-frame clouds before T_flange_cam
-        self.transform_name: str | None = None
-        self.transform_pinned = config.transform_file is not None
+        pinned = config.transform_file  # a file given at start: calibrator results are ignored
+        self.T_flange_cam = load_transform_file(pinned) if pinned else None
+        self.correction = (
+            load_correction_file(pinned) if pinned else CameraCorrection()
+        )  # before T_flange_cam
+        self.transform_name = f"file {pinned}" if pinned else None
         self.result_stamp_ns = -1  # stamp of the calibrator result in use
         self.stamps = StampCheck()  # future poses and results, live results older than this start
-        if config.transform_file is not None:
-            self.T_flange_cam = load_transform_file(config.transform_file)
-            self.correction = load_correction_file(config.transform_file)
-            self.transform_name = f"file {config.transform_file}"
         self.latest: Detection | None = None
         self.picks = Picks(config.pick)
         self.shared = SharedReader(shm_enabled())  # clouds read in place from Zenoh shared memory
@@ -96,7 +92,7 @@ class Detector:
     def on_calibration(self, sample: zenoh.Sample, live: bool = False) -> None:
         """A calibrator result; ``live``: published now (not fetched at start), so one stamped
         before this service started is a replay and is refused."""
-        if self.transform_pinned:
+        if self.config.transform_file:
             return
         try:
             check_payload(str(sample.key_expr), sample.payload)
@@ -147,10 +143,8 @@ class Detector:
     ) -> Detection:
         """Decode a CDR PointCloud2 (a job's is decoded once) and detect; ValueError subclasses if bad."""
         cloud = payload.cloud() if isinstance(payload, CloudJob) else pointcloud.decode(payload)
-        camera = self.in_camera_frame(cloud.frame_id, camera, key)
-        points = cloud.xyz()
-        transform = None
-        if camera:
+        points, transform = cloud.xyz(), None
+        if self.in_camera_frame(cloud.frame_id, camera, key):
             with self._lock:
                 T_flange_cam, transform, corr = self.T_flange_cam, self.transform_name, self.correction
             if T_flange_cam is None:
@@ -183,13 +177,11 @@ class Detector:
     def process(self, job: CloudJob) -> None:
         try:
             det = self.detect_payload(job, job.camera, job.key, job.corrected)
-        except TransformUnavailable as e:
-            self.drops.add(UNMAPPED, error_text(e))
-            self._error(str(e))
-            return
         except ValueError as e:
-            self.drops.add(BAD, error_text(f"cloud on {job.key}: {e}"))
-            self._error(f"cloud on {job.key}: {e}")
+            unmapped = isinstance(e, TransformUnavailable)
+            message = str(e) if unmapped else f"cloud on {job.key}: {e}"
+            self.drops.add(UNMAPPED if unmapped else BAD, error_text(message))
+            self._error(message)
             return
         self.latest = det
         self.counters["processed"] += 1
@@ -255,7 +247,7 @@ def main(config: ServiceConfig) -> int:
             "pick": session.declare_publisher(keys.pick_target),
         }
         service = Detector(config, publish)
-        took = warm_up(service.board, service.detect_payload, config.pick)  # before the first cloud
+        took = warm_up(config.board, service.detect_payload, config.pick)  # before the first cloud
         declared: list[Any] = [
             session.declare_subscriber(keys.points, service.on_cloud),
             session.declare_subscriber(keys.camera_points, lambda s: service.on_cloud(s, camera=True)),

@@ -5,11 +5,10 @@ from __future__ import annotations
 import argparse
 import json
 import logging
-import os
 import sys
 from pathlib import Path
 
-from sofia_runtime.output import add_json_option, float_arg
+from sofia_runtime.output import add_command, add_group, float_arg
 from sofia_runtime.zenoh_config import ZenohOptions, add_zenoh_args
 from sofia_schemas import Board
 from sofia_schemas.board import BOARD_HELP
@@ -27,10 +26,10 @@ log = logging.getLogger("sofia.detect")
 
 
 def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
-    d = sub.add_parser("detect", help="detect the objects on the board in cloud files")
+    d = add_command(sub, "detect", _detect_all, "detect the objects on the board in cloud files",
+                    json="one object per cloud and line")  # fmt: skip
     d.add_argument("files", nargs="+", type=Path, metavar="FILE", help=".mcap, .pcd, .ply or .npy")
     d.add_argument("--board", type=Path, help=BOARD_HELP)
-    add_json_option(d, "one object per cloud and line")
     d.add_argument(
         "--plot", type=Path, metavar="OUT.png",
         help="draw the board from above into OUT.png; several clouds: OUT-01.png, OUT-02.png, ... (one per cloud)",
@@ -39,11 +38,8 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
         "--transform", type=Path, metavar="FILE",
         help="T_flange_cam YAML/JSON: also detect in the camera-frame clouds of .mcap files",
     )  # fmt: skip
-    d.set_defaults(func=_detect_files)
-
-    s = sub.add_parser("detector", help="the detector service")
-    ss = s.add_subparsers(dest="detector_cmd", required=True, metavar="ACTION")
-    serve = ss.add_parser("serve", help="run the detector service on Zenoh")
+    serve = add_command(add_group(sub, "detector", "the detector service"), "serve", _serve,
+                        "run the detector service on Zenoh")  # fmt: skip
     serve.add_argument("--board", type=Path, help=BOARD_HELP)
     serve.add_argument(
         "--transform", type=Path, metavar="FILE", help="T_flange_cam YAML/JSON (else the calibrator's)"
@@ -65,7 +61,6 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
         "for truncated objects, whose centre is that of their visible part)",
     )  # fmt: skip
     add_zenoh_args(serve)
-    serve.set_defaults(func=_serve)
 
 
 _confidence = float_arg("a confidence between 0 and 1", lambda c: 0.0 <= c <= 1.0)
@@ -102,14 +97,6 @@ def _summary(fc: FileCloud, det: Detection) -> str:
 
 RECORD_FIELDS = {"stamp_ns", "status", "objects", "board_normal", "board_center", "timings_ms", "transform",
                  "source", "detail"}  # fmt: skip
-
-
-def _detect_files(args: argparse.Namespace) -> int:
-    try:
-        return _detect_all(args)
-    except BrokenPipeError:  # `sofia detect ... | head`: the reader has seen enough
-        sys.stdout = open(os.devnull, "w")  # silences the flush at exit
-        return 0
 
 
 def _detect_all(args: argparse.Namespace) -> int:

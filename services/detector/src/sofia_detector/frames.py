@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import logging
 import threading
-from bisect import bisect_left
+from bisect import bisect_left, insort
 from collections import deque
 from pathlib import Path
 
@@ -102,12 +102,9 @@ class FlangeHistory:
                     (self._poses[-1][0] - stamp_ns) / 1e9, len(self._poses),
                 )  # fmt: skip
                 self._poses.clear()
-            if self._poses and stamp_ns < self._poses[-1][0]:
-                items = sorted([*self._poses, (stamp_ns, T_base_flange)], key=lambda p: p[0])
-                self._poses.clear()
-                self._poses.extend(items)
-            else:
-                self._poses.append((stamp_ns, T_base_flange))
+            if len(self._poses) == self._poses.maxlen:
+                self._poses.popleft()
+            insort(self._poses, (stamp_ns, T_base_flange), key=lambda p: p[0])  # out of order: sorted in
             self._arrived.notify_all()
 
     def wait_covered(self, stamp_ns: int, timeout_s: float) -> bool:

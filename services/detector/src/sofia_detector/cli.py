@@ -95,8 +95,21 @@ def _summary(fc: FileCloud, det: Detection) -> str:
     return "\n".join(lines)
 
 
-RECORD_FIELDS = {"stamp_ns", "status", "objects", "board_normal", "board_center", "timings_ms", "transform",
-                 "source", "detail"}  # fmt: skip
+# the Detection's fields in a line of --json, beside "file", "index" and "board"
+RECORD = {"stamp_ns", "status", "objects", "board_normal", "board_center", "timings_ms", "transform", "source",
+          "detail"}  # fmt: skip
+
+
+def _numbered(out: Path, n: int) -> Path:
+    """``OUT-01.png``, ``OUT-02.png``, ... for cloud ``n`` (from 0), numbered from 1 like the scenes."""
+    return out.with_name(f"{out.stem}-{n + 1:02d}{out.suffix or '.png'}")
+
+
+def _plot(out: Path, fc: FileCloud, board: Board, det: Detection, path: Path) -> None:
+    from .plot import plot_detection
+
+    plot_detection(fc.points, board, det, out, title=f"{out.stem}: {path.name}, cloud {fc.index + 1}")
+    log.info("plot written to %s", out)
 
 
 def _detect_all(args: argparse.Namespace) -> int:
@@ -113,28 +126,12 @@ def _detect_all(args: argparse.Namespace) -> int:
                     raise WrongCloud(fc.source, why)
                 if fc.transform:
                     det = det.model_copy(update={"transform": fc.transform})
-                rec = {
-                    "file": str(path),
-                    "index": fc.index,
-                    **det.model_dump(mode="json", include=RECORD_FIELDS),
-                }
+                rec = {"file": str(path), "index": fc.index, **det.model_dump(mode="json", include=RECORD)}
                 print(
                     json.dumps(rec | {"board": board.digest}) if args.json else _summary(fc, det), flush=True
                 )
                 if args.plot:
-                    from .plot import plot_detection
-
-                    out = (
-                        args.plot
-                        if single
-                        else args.plot.with_name(
-                            f"{args.plot.stem}-{n_clouds + 1:02d}{args.plot.suffix or '.png'}"
-                        )
-                    )  # OUT-01.png, OUT-02.png, ... numbered from 1 like the scenes
-                    plot_detection(
-                        fc.points, board, det, out, title=f"{out.stem}: {path.name}, cloud {fc.index + 1}"
-                    )
-                    log.info("plot written to %s", out)
+                    _plot(args.plot if single else _numbered(args.plot, n_clouds), fc, board, det, path)
                 n_clouds += 1
         except DetectorError as e:
             failures += 1

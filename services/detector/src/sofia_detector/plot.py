@@ -16,22 +16,19 @@ from .pick import PickParams, pick_target, pickable
 
 CELL_M = 0.003  # side of the height map's cells
 ALLOWED, NOT_ALLOWED = "#2ca02c", "#ff7f0e"  # footprint colours
-FINGERS = "#1f77b4"
+FINGERS, RED_FIELD = "#1f77b4", "#d62728"
 STATUS_TEXT = {"ok": "{n} object(s) on the board", "no_object": "board seen, no object on it",
                "no_board": "no board found"}  # fmt: skip
 
 
-def _corners(center: np.ndarray, size: tuple[float, float], yaw: float) -> np.ndarray:
-    """(5, 2) closed outline of a rectangle centred at ``center`` (2,) rotated by ``yaw``."""
-    c, s = np.cos(yaw), np.sin(yaw)
-    half = np.array([[-1, -1], [1, -1], [1, 1], [-1, 1], [-1, -1]]) * np.asarray(size) / 2
-    return center + half @ np.array([[c, s], [-s, c]])
+def _rectangle(
+    center: np.ndarray | tuple[float, ...], size: tuple[float, ...], yaw: float, **style: Any
+) -> Any:
+    """A matplotlib rectangle centred at ``center`` (2,), metres, turned by ``yaw`` (radians)."""
+    from matplotlib.patches import Rectangle
 
-
-def _draw_field(ax: Any, fc: np.ndarray, size: tuple[float, float], yaw: float, red: bool) -> None:
-    corners = _corners(fc, size, yaw)
-    ax.fill(corners[:, 0], corners[:, 1], color="#d62728" if red else "white", alpha=0.35, zorder=2.5, lw=0)
-    ax.plot(corners[:, 0], corners[:, 1], color="0.3", lw=0.6, zorder=2.6)
+    corner = np.asarray(center) - np.asarray(size) / 2
+    return Rectangle(tuple(corner), *size, angle=np.degrees(yaw), rotation_point="center", **style)
 
 
 def _label_rows_and_columns(ax: Any, board: Board, center: np.ndarray, R: np.ndarray) -> None:
@@ -83,6 +80,7 @@ def plot_detection(
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    from matplotlib.colors import to_rgba
     from matplotlib.lines import Line2D
     from matplotlib.patches import Patch
 
@@ -96,9 +94,11 @@ def plot_detection(
     R = np.array([[c, -s], [s, c]])
     fx, fy = board.field_size
     centers = board.field_centers_board()
-    for r in range(board.rows):
-        for col in range(board.cols):
-            _draw_field(ax, center + R @ centers[r, col], (fx, fy), yaw, board.is_allowed(r, col))
+    for (r, col), _ in np.ndenumerate(centers[..., 0]):  # red fields tinted, each field outlined
+        fill = to_rgba(RED_FIELD if board.is_allowed(r, col) else "white", 0.35)
+        ax.add_patch(
+            _rectangle(center + R @ centers[r, col], (fx, fy), yaw, fc=fill, ec="0.3", lw=0.6, zorder=2.5)
+        )
     _label_rows_and_columns(ax, board, center, R)
     ex, ey = board.extent
     margin = 0.08
@@ -113,8 +113,8 @@ def plot_detection(
                      orientation="horizontal", shrink=0.6, pad=0.08)  # fmt: skip
     lines = []
     for i, obj in enumerate(detection.objects, 1):
-        corners = _corners(np.array(obj.center[:2]), (obj.extents[0], obj.extents[1]), obj.yaw)
-        ax.plot(corners[:, 0], corners[:, 1], color=ALLOWED if obj.allowed else NOT_ALLOWED, lw=1.5, zorder=3)
+        ax.add_patch(_rectangle(obj.center[:2], obj.extents[:2], obj.yaw, fill=False, lw=1.5, zorder=3,
+                                ec=ALLOWED if obj.allowed else NOT_ALLOWED))  # fmt: skip
         ax.plot(*obj.center[:2], "x", color="k", ms=9, mew=2, zorder=4)
         ax.plot(*obj.centroid[:2], "o", mfc="none", mec="m", ms=8, zorder=4)
         ax.annotate(str(i), obj.center[:2], xytext=(7, 7), textcoords="offset points", fontsize=8, zorder=5,
@@ -126,7 +126,7 @@ def plot_detection(
     _draw_fingers(ax, detection)
     _mark_robot_base(ax, center, R, board.extent)
     ax.legend(handles=[
-        Patch(fc="#d62728", alpha=0.35, label="red field: its objects are picked"),
+        Patch(fc=RED_FIELD, alpha=0.35, label="red field: its objects are picked"),
         Line2D([], [], color=ALLOWED, lw=1.5, label="object on a red field"),
         Line2D([], [], color=NOT_ALLOWED, lw=1.5, label="object on another field (not picked)"),
         Line2D([], [], color=FINGERS, marker="s", ms=5, ls="--", label="fingertips of the grasp"),

@@ -19,55 +19,32 @@ DEFAULT_PALETTE: tuple[tuple[str, tuple[int, int, int]], ...] = (
 
 @dataclass(frozen=True)
 class DetectorParams:
-    """Thresholds of :func:`sofia_detector.detect`.
+    """Thresholds of :func:`sofia_detector.detect` (metres and radians unless named otherwise)."""
 
-    stride: pixel step of the coarse grid of organized clouds (plane fit, outline, object seeds).
-    board_band: points within this distance of the configured board plane are board candidates.
-    board_shrink: the plane is fitted only inside the configured board shrunk by this margin.
-    plane_thresholds: inlier distances of the successive robust plane refits.
-    outline_band: |height| below which a point belongs to the board top (outline).
-    outline_margin: the outline is searched within the configured board grown by this margin.
-    max_board_yaw: largest in-plane rotation of the real board from the configured one.
-    max_rim: widest border of the board around its fields (outline sanity check).
-    seed_height: floor of the height above the measured plane that marks a coarse object pixel
-        (the board's fitted noise raises it to ``noise_k`` standard deviations).
-    object_height: floor of the height of the points that form an object (full resolution;
-        raised to ``point_k`` noise standard deviations).
-    noise_k, point_k: the two thresholds in units of the board's fitted depth noise.
-    max_height: points higher than this (the gripper fingers, the arm) are ignored.
-    field_margin: an object's centre must lie within the field grid grown by this margin.
-    min_seed_pixels: smallest coarse component that is examined.
-    min_points: smallest object (full-resolution points).
-    min_object_height: an object must rise this far above the board (the height floor).
-    neighbour_px: flying pixels: a point needs two of its 8 neighbours within this many pixel
-        spacings (plus the depth noise) in 3D.
-    min_width: narrowest footprint of an object (thinner: a sheet of flying pixels).
-    colour_tol: colour distance (see :func:`.depth_clean.chroma`) of holes bridged into an object.
-    palette: (name, sRGB) of the colours objects are named after.
-    curvature: |d| (1/m) of the top fit ``h = a + b x + c y + d r^2`` above which a top is curved.
-    cell: occupancy-grid cell of unorganized clouds.
-    """
-
-    stride: int = 4
-    board_band: float = 0.05
-    board_shrink: float = 0.02
-    plane_thresholds: tuple[float, ...] = (0.025, 0.01, 0.006)
-    outline_band: float = 0.008
-    outline_margin: float = 0.08
-    max_board_yaw: float = 0.105  # 6 degrees
-    max_rim: float = 0.05
+    stride: int = 4  # pixel step of the coarse grid of organized clouds (plane fit, outline, object seeds)
+    board_band: float = 0.05  # points this near the configured board plane are board candidates
+    board_shrink: float = 0.02  # the plane is fitted only inside the configured board shrunk by this
+    plane_thresholds: tuple[float, ...] = (0.025, 0.01, 0.006)  # inlier distances of the successive refits
+    outline_band: float = 0.008  # |height| below which a point belongs to the board top (outline)
+    outline_margin: float = 0.08  # the outline is searched within the configured board grown by this
+    max_board_yaw: float = 0.105  # 6 degrees: largest in-plane turn of the real board from the configured
+    max_rim: float = 0.05  # widest border of the board around its fields (outline sanity check)
+    # floor of the height above the measured plane that marks a coarse object pixel (raised to noise_k
+    # standard deviations of the board's fitted depth noise)
     seed_height: float = 0.005
-    object_height: float = 0.003
-    max_height: float = 0.30
-    field_margin: float = 0.02
-    min_seed_pixels: int = 3
-    min_points: int = 30
-    min_object_height: float = 0.005
-    curvature: float = 3.0
-    cell: float = 0.004
-    noise_k: float = 4.0
+    object_height: float = 0.003  # floor of the height of an object's points (raised to point_k sigmas)
+    max_height: float = 0.30  # points higher than this (the gripper fingers, the arm) are ignored
+    field_margin: float = 0.02  # an object's centre must lie within the field grid grown by this margin
+    min_seed_pixels: int = 3  # smallest coarse component that is examined
+    min_points: int = 30  # smallest object (full-resolution points)
+    min_object_height: float = 0.005  # an object must rise this far above the board (the height floor)
+    curvature: float = 3.0  # |d| (1/m) of the top fit h = a + b x + c y + d r^2 beyond which it is curved
+    cell: float = 0.004  # occupancy-grid cell of unorganized clouds
+    noise_k: float = 4.0  # seed_height, object_height: floors in units of the board's fitted depth noise
     point_k: float = 3.0
+    # flying pixels: a point needs two of its 8 neighbours within this many pixel spacings (plus the
+    # depth noise) in 3D
     neighbour_px: float = 4.0
-    colour_tol: float = 0.25
-    min_width: float = 0.008
-    palette: tuple[tuple[str, tuple[int, int, int]], ...] = DEFAULT_PALETTE
+    colour_tol: float = 0.25  # colour distance (depth.clean.chroma) of holes bridged into an object
+    min_width: float = 0.008  # narrowest footprint of an object (thinner: a sheet of flying pixels)
+    palette: tuple[tuple[str, tuple[int, int, int]], ...] = DEFAULT_PALETTE  # (name, sRGB) of the colours

@@ -18,19 +18,15 @@ log = logging.getLogger("sofia.detector")
 
 @dataclass(frozen=True)
 class PickParams:
-    """fingertip_offset: flange -> fingertip distance along the flange z axis, metres.
-    pregrasp_height: pre-grasp pose above the grasp, metres. margin_mm: added to the object width.
-    max_opening_mm: the gripper's widest opening (the opening is clipped to it).
-    yaw_offset: rotation of the fingers about the flange z axis from the flange y axis, radians.
-    min_confidence: objects below it get no pick: a truncated object's centre is that of its
-    visible part (its confidence is below 0.5) and may lie centimetres off.
-    """
+    """How a detected object is picked (metres, radians, millimetres as named)."""
 
-    fingertip_offset: float = 0.20
-    pregrasp_height: float = 0.10
-    margin_mm: float = 20.0
-    max_opening_mm: float | None = None
-    yaw_offset: float = 0.0
+    fingertip_offset: float = 0.20  # flange -> fingertips along the flange z axis
+    pregrasp_height: float = 0.10  # the pre-grasp pose above the grasp
+    margin_mm: float = 20.0  # added to the object's width for the opening
+    max_opening_mm: float | None = None  # the gripper's widest opening (the opening is clipped to it)
+    yaw_offset: float = 0.0  # turn of the fingers about the flange z axis from the flange y axis
+    # objects below it get no pick: a truncated object's centre is that of its visible part (its
+    # confidence is below 0.5) and may lie centimetres off
     min_confidence: float = 0.5
 
 

@@ -21,6 +21,7 @@ from .frames import load_transform_file
 from .pick import PickParams
 from .readers import FileCloud, iter_file_clouds
 from .sanity import diagnose
+from .service_config import ServiceConfig
 
 log = logging.getLogger("sofia.detect")
 
@@ -46,14 +47,14 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     )
     add_robot_arg(serve)
     serve.add_argument(
-        "--backlog", type=int, default=1, metavar="N",
+        "--backlog", type=int, default=ServiceConfig.backlog, metavar="N",
         help="clouds kept while busy (default 1: only the latest, older ones are dropped and counted; "
         "N > 1: a stall of up to N-1 frames loses nothing, at most N-1 frames late)",
     )  # fmt: skip
     serve.add_argument(
-        "--pose-wait", type=float, default=0.3, metavar="S",
+        "--pose-wait", type=float, default=ServiceConfig.pose_wait_s, metavar="S",
         help="seconds a camera-frame cloud waits for the flange pose of its stamp, queries being "
-        "served meanwhile (default 0.3)",
+        "served meanwhile (default %(default)s)",
     )  # fmt: skip
     serve.add_argument(
         "--pick-min-confidence", type=_confidence, default=PickParams.min_confidence, metavar="C",
@@ -67,7 +68,7 @@ _confidence = float_arg("a confidence between 0 and 1", lambda c: 0.0 <= c <= 1.
 
 
 def _serve(args: argparse.Namespace) -> int:
-    from .service import ServiceConfig, main
+    from .service import main
 
     config = ServiceConfig(
         board=Board.load(args.board), robot=args.robot or default_robot(), zenoh=ZenohOptions.from_args(args),

@@ -11,8 +11,6 @@ from sofia_schemas import Board, frames
 from .params import DetectorParams
 from .pick import PickParams
 
-POSE_WAIT_S = 0.3  # how long a camera cloud waits for the flange pose of its stamp
-
 
 @dataclass
 class ServiceConfig:
@@ -24,4 +22,4 @@ class ServiceConfig:
     pick: PickParams = field(default_factory=PickParams)
     backlog: int = 1  # clouds kept while busy: 1 keeps only the latest; more absorb a short stall
     camera_frames: tuple[str, ...] = (frames.CAMERA_FRAME,)  # frame ids mapped with T_flange_cam
-    pose_wait_s: float = POSE_WAIT_S  # how long a camera cloud waits for the flange pose of its stamp
+    pose_wait_s: float = 0.3  # how long a camera cloud waits for the flange pose of its stamp

@@ -14,6 +14,7 @@ from sofia_schemas import Board, FlangePose, pointcloud
 from sofia_schemas.messages import Detection
 from sofia_schemas.ros2.encoding import decode_flange
 from sofia_schemas.rosmsg import encode_flange_pose
+from sofia_schemas.transforms import apply
 
 from .detect import detect
 from .pick import PickParams, first_pick
@@ -36,19 +37,17 @@ def warm_scene(board: Board) -> tuple[np.ndarray, np.ndarray]:
     y = (u - (cols - 1) / 2) / WARM_FOCAL_PX * WARM_HEIGHT_M
     field = board.field_of_board_xy(np.stack([x, y], axis=-1).reshape(-1, 2)).reshape(rows, cols, 2)
     on_board = field[..., 0] >= 0
-    red = np.zeros((board.rows, board.cols), dtype=bool)
-    for r, c in board.allowed:
-        red[r, c] = True
+    red = np.array(
+        [[board.is_allowed(r, c) for c in range(board.cols)] for r in range(board.rows)], dtype=bool
+    )
     row, col = board.allowed[0] if board.allowed else (board.rows // 2, board.cols // 2)
     box_xy = board.field_centers_board()[row, col]
     in_box = (np.abs(x - box_xy[0]) < WARM_BOX_M[0] / 2) & (np.abs(y - box_xy[1]) < WARM_BOX_M[1] / 2)
     z = np.where(in_box, WARM_BOX_M[2], 0.0)
     p_board = np.stack([x, y, z], axis=-1)
     p_board[~on_board] = np.nan
-    T = board.T_base_board
-    points = (p_board @ T[:3, :3].T + T[:3, 3]).astype(np.float32)
-    rgb = np.empty((rows, cols, 3), dtype=np.uint8)
-    rgb[:] = WHITE
+    points = apply(board.T_base_board, p_board).astype(np.float32)
+    rgb = np.full((rows, cols, 3), WHITE, dtype=np.uint8)
     rgb[on_board & red[field[..., 0], field[..., 1]]] = RED
     rgb[in_box] = BLUE
     return points, rgb

@@ -52,9 +52,8 @@ class Detector:
         self.flange = FlangeHistory()
         pinned = config.transform_file  # a file given at start: calibrator results are ignored
         self.T_flange_cam = load_transform_file(pinned) if pinned else None
-        self.correction = (
-            load_correction_file(pinned) if pinned else CameraCorrection()
-        )  # before T_flange_cam
+        # the camera correction, applied to camera-frame clouds before T_flange_cam
+        self.correction = load_correction_file(pinned) if pinned else CameraCorrection()
         self.transform_name = f"file {pinned}" if pinned else None
         self.result_stamp_ns = -1  # stamp of the calibrator result in use
         self.stamps = StampCheck()  # future poses and results, live results older than this start

@@ -31,8 +31,7 @@ def _refits(
     x: np.ndarray, y: np.ndarray, z: np.ndarray, thresholds: np.ndarray, min_points: int
 ) -> tuple[float, float, float, float, int]:
     """(a, b, c, rms, n_inliers) of :func:`fit_plane`; n_inliers < ``min_points`` when it fails.
-    Kept: 36 us against 147 us per cloud for its numpy form (each refit's normal equations by
-    ``A A^T`` and a 3 x 3 solve) on 28 realistic scenes (``bench/bench_detector_kernels.py``)."""
+    Kept: 36 us against 147 us per cloud for its numpy form on 28 realistic scenes."""
     a, b, c = z.astype(np.float64).mean(), 0.0, 0.0
     n_in = 0
     for thr in thresholds:
@@ -69,13 +68,9 @@ def _refits(
 def fit_plane(
     x: np.ndarray, y: np.ndarray, z: np.ndarray, thresholds: tuple[float, ...], min_points: int
 ) -> PlaneFit | None:
-    """Robust least-squares plane through board candidate points.
-
-    x, y, z: (n,) float32, configured board frame, metres (finite). Starts from the flat plane at
-    the mean height, then refits on the points within each of ``thresholds`` of the previous plane
-    (objects and clutter drop out). Returns None when fewer than ``min_points`` remain or they lie
-    on a line.
-    """
+    """Robust plane through x, y, z (n,) float32 (configured board frame, metres, finite): from the
+    flat plane at the mean height, refitted on the points within each of ``thresholds`` of the
+    previous one; None when fewer than ``min_points`` remain or they lie on a line."""
     if z.size < min_points:
         return None
     x, y, z = (np.ascontiguousarray(v, dtype=np.float32) for v in (x, y, z))
@@ -86,9 +81,8 @@ def fit_plane(
 
 
 def T_cfg_plane(fit: PlaneFit) -> np.ndarray:
-    """(4, 4) pose of the measured plane frame in the configured board frame: z along the
-    normal, x along the configured x projected onto the plane (scalar arithmetic: numpy's
-    per-call overhead would dominate on 3-vectors)."""
+    """(4, 4) pose of the plane frame in the configured board frame: z along the normal, x along
+    the configured x projected onto the plane (scalars: numpy's overhead dominates on 3-vectors)."""
     zx, zy, zz = fit.normal_cfg
     xx, xy, xz = 1.0 - zx * zx, -zx * zy, -zx * zz  # (1, 0, 0) without its normal component
     k = math.sqrt(xx * xx + xy * xy + xz * xz)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import replace
+from functools import cache
 
 import numpy as np
 from sofia_schemas import Board
@@ -43,21 +44,18 @@ def measure_objects(
     their colour silhouettes.
     """
     organized = cloud.ndim == 3
-    white = None
-    need_white = colours is not None  # measured once, for the first object named
 
-    def board_white_once() -> np.ndarray | None:
-        nonlocal white, need_white
-        if need_white and colours is not None:
-            s = params.stride
-            m, c = (
-                (fit.m_coarse, colours[::s, ::s])
-                if organized
-                else (fit.m_coarse[:, ::7, None], colours[::7, None])
-            )
-            white = board_white(m, c, fit.T_board_plane, board, params.outline_band)
-            need_white = False
-        return white
+    @cache
+    def board_white_once() -> np.ndarray | None:  # measured for the first object named
+        if colours is None:
+            return None
+        s = params.stride
+        m, c = (
+            (fit.m_coarse, colours[::s, ::s])
+            if organized
+            else (fit.m_coarse[:, ::7, None], colours[::7, None])
+        )
+        return board_white(m, c, fit.T_board_plane, board, params.outline_band)
 
     depth = cloud[..., 2] if organized else None
     objects, placed, slivers = [], [], []

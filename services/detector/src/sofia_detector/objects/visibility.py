@@ -1,7 +1,5 @@
 """How much of an object is in view: where its silhouette runs along the image border, something
-nearer (the fingers) or missing depth of its own colour, the object goes on out of view and the
-centre of its visible part is biased; elsewhere the board (or its stereo shadow) borders it.
-"""
+nearer or missing depth of its colour, it goes on out of view; elsewhere the board borders it."""
 
 from __future__ import annotations
 
@@ -20,11 +18,10 @@ BELOW_BOARD = 0.01  # neighbours this far below the board surface: the object st
 
 @dataclass(frozen=True)
 class InView:
-    """fraction: estimated share of the object in view (0-1). reasons: what hides the rest
-    (``image_edge``, ``occluded``, ``depth_holes``). lost: share of the silhouette out of view.
-    holes: share of the object's pixels without depth. off_board: share of its surroundings
-    (among those at or below board level) lying below the board: it stands beside the board.
-    measured: False for an unorganized cloud, whose missing pixel grid cannot tell any of this."""
+    """Share in view (0-1); what hides the rest (``image_edge``, ``occluded``, ``depth_holes``);
+    lost: share of the silhouette out of view; holes: share of its pixels without depth;
+    off_board: share of its surroundings at or below board level lying below it; measured: False
+    for an unorganized cloud (no pixel grid to tell)."""
 
     fraction: float
     reasons: tuple[str, ...]
@@ -35,10 +32,9 @@ class InView:
 
 
 def seen_from(depth: np.ndarray, rows: slice, stop: int) -> np.ndarray:
-    """The first column with depth in each of ``rows`` of ``depth`` (H, W) (z of an organized cloud,
-    NaN where missing), searched in its first ``stop`` columns (``stop`` when none has depth).
-    The band on the image's left that the second imager does not see is as wide as the disparity:
-    wider for nearer surfaces, so an object's top ends it further right than the board does."""
+    """The first column with depth (``stop`` when none) in each of ``rows`` of depth (H, W) (NaN
+    where missing) within its first ``stop`` columns: the band the second imager does not see, as
+    wide as the disparity (wider on nearer surfaces)."""
     seen = np.isfinite(depth[rows, :stop])
     return np.where(seen.any(axis=1), np.argmax(seen, axis=1), stop)
 
@@ -46,10 +42,9 @@ def seen_from(depth: np.ndarray, rows: slice, stop: int) -> np.ndarray:
 def _ring(
     mask: np.ndarray, h: np.ndarray, above: float, below: float
 ) -> tuple[np.ndarray, int, int, int, int, np.ndarray]:
-    """The ring around an object's pixels ``mask`` (h, w) bool: the pixels within 2 of it, not on
-    it, (h, w) bool; how many; how many of them are higher than ``above`` (in front of the object),
-    lower than ``-below`` (beside the board) and within ``below`` of the board (heights ``h``
-    (h, w) float32, NaN where missing, metres); and the pixels without depth within 3 of it."""
+    """The ring (h, w) bool within 2 pixels of ``mask``; its size; how many of it lie above ``above``,
+    below ``-below`` and within ``below`` of the board (h (h, w) float32, metres); and the pixels
+    without depth within 3 of the mask."""
     ring = grow(mask, 5) & ~mask
     near = grow(mask, 7) & np.isnan(h)
     z = h[ring]
@@ -61,11 +56,9 @@ def _ring(
 def _holes(
     mask: np.ndarray, ring: np.ndarray, near: np.ndarray, rgb: np.ndarray, own: np.ndarray, tol: float
 ) -> tuple[int, int]:
-    """(ring pixels beside missing depth of the object's colour, pixels of that missing depth):
-    ``near`` (h, w) bool pixels of the object's colour (``own`` (4,) :func:`.depth_clean.chroma`
-    within ``tol``, colours ``rgb`` (h, w, 3) uint8) are its holes; of the ``ring`` pixels those
-    within a pixel of a 3 x 3 block of holes (not the grazing slivers along rims) count, except
-    the object's own stereo shadow (the two pixels left of ``mask``)."""
+    """(ring pixels within a pixel of a 3 x 3 block of holes, holes): holes are the ``near`` pixels
+    of the object's colour (``own`` chroma within ``tol``); the stereo shadow (two pixels left of
+    ``mask``) does not count."""
     same = np.zeros(mask.shape, dtype=bool)
     same[near] = of_colour(rgb[near], own, tol)
     shadow = np.zeros_like(mask)
@@ -76,13 +69,9 @@ def _holes(
 
 
 def in_view(obj: ObjectPoints, top: float, tol: float, depth: np.ndarray | None = None) -> InView:
-    """Visibility of an object of an organized cloud whose top is ``top`` metres above the board.
-
-    depth: (H, W) the cloud's z (NaN where missing). Where the object reaches the first column with
-    depth of a row (:func:`seen_from`), everything to its left up to the image border is unseen:
-    an image edge. Missing depth just left of the object is its own stereo shadow (the second
-    imager sits to the right), not a hole in it.
-    """
+    """Visibility of an object whose top is ``top`` metres above the board. depth: (H, W) the
+    cloud's z (NaN where missing): an object reaching a row's first column with depth
+    (:func:`seen_from`) meets an image edge there."""
     if obj.rows is None or obj.cols is None or obj.window is None:
         return InView(1.0, (), 0.0, 0.0, 0.0, measured=False)
     (r0, c0), (H, W) = obj.origin, obj.image_shape

@@ -1,8 +1,5 @@
-"""The points of each object on the board.
-
-Organized clouds: object seeds on the coarse pixel grid (heights above the measured plane), then
-full resolution only inside each seed's pixel window. Unorganized clouds: :mod:`.unorganized`.
-"""
+"""Objects of an organized cloud: seeds on the coarse pixel grid (heights above the measured
+plane), then full resolution only inside each seed's pixel window."""
 
 from __future__ import annotations
 
@@ -19,8 +16,6 @@ from ..params import DetectorParams
 from .points import Levels, ObjectPoints, inside
 
 MIN_PART = 10  # pixels of the smallest part standing on an object that is joined to it
-
-
 PART_MARGIN = 0.005  # metres
 
 
@@ -41,14 +36,9 @@ def organized_objects(
     levels: Levels,
     rgb: np.ndarray | None = None,
 ) -> Iterator[ObjectPoints]:
-    """Objects of an organized cloud.
-
-    points_base: (H, W, 3) float, base frame, metres. m_coarse: (3, h, w) float32, plane frame, the
-    coordinates of ``points_base[::stride, ::stride]``. T_base_board: (4, 4) measured board frame;
-    T_board_plane: (4, 4) plane frame in the board frame. half: (2,) half size of the region where
-    object centres may lie, board frame. rgb: (H, W, 3) uint8 aligned colours, or None. Flying
-    pixels are dropped; pieces of one object split by depth holes are joined through missing
-    pixels of its colour.
+    """Objects of points_base (H, W, 3) float, base frame, metres. m_coarse: (3, h, w) float32,
+    ``points_base[::stride, ::stride]`` in the plane frame. T_base_board, T_board_plane: (4, 4).
+    half: (2,) half size of the region of object centres, board frame. rgb: (H, W, 3) uint8 or None.
     """
     s = params.stride
     H, W = points_base.shape[:2]
@@ -99,11 +89,10 @@ def organized_objects(
 def _with_parts_on_top(
     labels: np.ndarray, n: int, b: np.ndarray, obj: np.ndarray, pieces: np.ndarray
 ) -> np.ndarray:
-    """``obj`` (h, w) bool (the ``pieces`` of ``labels``) with the other pieces of ``labels``
-    (h, w) (1..n) that stand on it: at least :data:`MIN_PART` pixels, higher than its median
-    point and inside its footprint's bounding box (within :data:`PART_MARGIN`). A step in depth separates such a part (a bottle's
-    neck above its shoulder) on the pixel grid; nothing floats above an object. b: (3, h, w)
-    board-frame coordinates of the window, metres."""
+    """``obj`` (h, w) bool (the ``pieces`` of ``labels`` (h, w), 1..n) with the other pieces that
+    stand on it (a bottle's neck above its shoulder, cut off by a step in depth): at least
+    :data:`MIN_PART` pixels, above its median point, within its bounding box (+ :data:`PART_MARGIN`).
+    b: (3, h, w) board-frame coordinates of the window, metres."""
     sizes = np.bincount(labels.ravel(), minlength=n + 1)
     sizes[pieces] = 0
     sizes[0] = 0

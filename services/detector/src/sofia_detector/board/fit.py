@@ -52,11 +52,8 @@ def _towards(hits: np.ndarray, reach: int, steps_xy: np.ndarray) -> np.ndarray:
 @lru_cache(maxsize=8)
 def _reach_steps(reach: int) -> np.ndarray:
     """(4 reach, 2) read-only (row, column) steps 1..reach down, up, right and left."""
-    d = np.arange(1, reach + 1)
-    z = np.zeros(reach, dtype=np.int64)
-    out = np.concatenate(
-        [np.stack([d, z], 1), np.stack([-d, z], 1), np.stack([z, d], 1), np.stack([z, -d], 1)]
-    )
+    d = np.arange(1, reach + 1, dtype=np.int64)
+    out = np.concatenate([np.outer(d, step) for step in ((1, 0), (-1, 0), (0, 1), (0, -1))])
     out.flags.writeable = False
     return out
 

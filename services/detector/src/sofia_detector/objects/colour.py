@@ -49,9 +49,7 @@ def board_white(
 def _white_fields(board: Board) -> np.ndarray:
     """(rows + 2, cols + 2) bool: the board's white fields, with a border of False around them."""
     white = np.zeros((board.rows + 2, board.cols + 2), dtype=bool)
-    for i in range(board.rows):
-        for j in range(board.cols):
-            white[i + 1, j + 1] = not board.is_allowed(i, j)
+    white[1:-1, 1:-1] = [[not board.is_allowed(i, j) for j in range(board.cols)] for i in range(board.rows)]
     return white
 
 

@@ -64,23 +64,6 @@ def bordered_patches(
     return good[parts]  # type: ignore[no-any-return]
 
 
-def _of_top_colour(
-    grid: np.ndarray, h: np.ndarray, rgb: np.ndarray, own: np.ndarray, tol: float
-) -> tuple[bool, np.ndarray, int, int, int]:
-    """Around the top ``grid`` (h, w) bool: whether missing depth of its colour (``own`` chroma
-    within ``tol``) lies within a pixel of it; those pixels (h, w) bool and their number; of every
-    second row and column, the board pixels within four of the top and how many have its colour."""
-    missing = np.isnan(h)
-    same = np.zeros(grid.shape, dtype=bool)
-    same[missing] = of_colour(rgb[missing], own, tol)
-    beside = bool((same & grow(grid, 3)).any())
-    h2 = h[::2, ::2]
-    with np.errstate(invalid="ignore"):
-        board = grow(grid[::2, ::2], 9) & (np.abs(h2) < RAISED)
-    n_board_same = int(np.count_nonzero(of_colour(rgb[::2, ::2][board], own, tol)))
-    return beside, same, int(np.count_nonzero(same)), int(np.count_nonzero(board)), n_board_same
-
-
 def unseen_top(obj: ObjectPoints, face: np.ndarray, tol: float) -> np.ndarray:
     """(k, 2) board-frame xy (metres) of the missing depth of the top's colour (within ``tol``) that
     joins the top ``face`` ((n,) bool) (:func:`bordered_patches`); (0, 2) when none."""
@@ -94,12 +77,15 @@ def unseen_top(obj: ObjectPoints, face: np.ndarray, tol: float) -> np.ndarray:
     grid[fr, fc] = True
     h = obj.window[2]
     own = median_chroma(obj.rgb, fr[::4], fc[::4])
-    beside, same, n_same, n_board, n_board_same = _of_top_colour(grid, h, obj.rgb, own, tol)
-    if not beside:
-        return none  # no missing pixel next to the top of its colour (the board in its stereo shadow)
-    if n_same < MIN_SHARE * fr.size:
-        return none
-    if n_board and n_board_same / n_board > BOARD_LIKE:
+    missing = np.isnan(h)
+    same = np.zeros(grid.shape, dtype=bool)
+    same[missing] = of_colour(obj.rgb[missing], own, tol)
+    if not (same & grow(grid, 3)).any() or np.count_nonzero(same) < MIN_SHARE * fr.size:
+        return none  # too little missing depth of its colour, none next to the top (its stereo shadow)
+    with np.errstate(invalid="ignore"):  # the board within four pixels, every second row and column
+        board = grow(grid[::2, ::2], 9) & (np.abs(h[::2, ::2]) < RAISED)
+    n_board = np.count_nonzero(board)
+    if n_board and np.count_nonzero(of_colour(obj.rgb[::2, ::2][board], own, tol)) / n_board > BOARD_LIKE:
         return none  # the object stands on its own colour
     face_h = obj.b[2, face]
     lo, mid = float(face_h.min()), float(median(face_h))

@@ -15,14 +15,13 @@ from ..geometry.points import points_in_frame
 from ..geometry.rect import Rect, min_area_rect
 from ..geometry.samples import median
 from ..segment.points import ObjectPoints
+from .holes import BOARD_LIKE, RAISED
 
-RAISED = 0.005  # metres: a pixel with depth this close to the board is the board
 MIN_MISSING = 0.5  # share of the silhouette without depth below which the slivers are the object
 CAMERA_POINTS = 600  # pixels with depth used to fit the camera
 MAX_REPROJECTION = 1.5  # pixels: median reprojection error of a usable camera fit
 CELL = 0.002  # metres: grid of the ray intersections
 ON_FOOTPRINT = 0.004  # metres: the slivers lie on the footprint within this distance
-BOARD_LIKE = 0.05  # share of the board around of the object's colour above which nothing is done
 
 
 @dataclass(frozen=True)

@@ -39,35 +39,6 @@ def seen_from(depth: np.ndarray, rows: slice, stop: int) -> np.ndarray:
     return np.where(seen.any(axis=1), np.argmax(seen, axis=1), stop)
 
 
-def _ring(
-    mask: np.ndarray, h: np.ndarray, above: float, below: float
-) -> tuple[np.ndarray, int, int, int, int, np.ndarray]:
-    """The ring (h, w) bool within 2 pixels of ``mask``; its size; how many of it lie above ``above``,
-    below ``-below`` and within ``below`` of the board (h (h, w) float32, metres); and the pixels
-    without depth within 3 of the mask."""
-    ring = grow(mask, 5) & ~mask
-    near = grow(mask, 7) & np.isnan(h)
-    z = h[ring]
-    with np.errstate(invalid="ignore"):
-        occluded, low, level = (int(np.count_nonzero(k)) for k in (z > above, z < -below, abs(z) <= below))
-    return ring, int(z.size), occluded, low, level, near
-
-
-def _holes(
-    mask: np.ndarray, ring: np.ndarray, near: np.ndarray, rgb: np.ndarray, own: np.ndarray, tol: float
-) -> tuple[int, int]:
-    """(ring pixels within a pixel of a 3 x 3 block of holes, holes): holes are the ``near`` pixels
-    of the object's colour (``own`` chroma within ``tol``); the stereo shadow (two pixels left of
-    ``mask``) does not count."""
-    same = np.zeros(mask.shape, dtype=bool)
-    same[near] = of_colour(rgb[near], own, tol)
-    shadow = np.zeros_like(mask)
-    shadow[:, :-1] = mask[:, 1:]
-    shadow[:, :-2] |= mask[:, 2:]
-    holes = ring & grow(shrink(same, 3), 3) & ~shadow
-    return int(np.count_nonzero(holes)), int(np.count_nonzero(same))
-
-
 def in_view(obj: ObjectPoints, top: float, tol: float, depth: np.ndarray | None = None) -> InView:
     """Visibility of an object whose top is ``top`` metres above the board. depth: (H, W) the
     cloud's z (NaN where missing): an object reaching a row's first column with depth
@@ -93,25 +64,27 @@ def in_view(obj: ObjectPoints, top: float, tol: float, depth: np.ndarray | None 
     )
     mask = np.zeros((crop[0].stop - crop[0].start, crop[1].stop - crop[1].start), dtype=bool)
     mask[obj.rows - crop[0].start, obj.cols - crop[1].start] = True
-    ring, n_ring, occluded, low, level, near = _ring(
-        mask, obj.window[2][crop], top + OCCLUDER_ABOVE, BELOW_BOARD
-    )
+    h = obj.window[2][crop]
+    ring = grow(mask, 5) & ~mask  # within 2 pixels of the object
+    near = grow(mask, 7) & np.isnan(h)  # missing depth within 3 pixels
+    z = h[ring]
+    with np.errstate(invalid="ignore"):  # in front of the object, beside the board, at board level
+        occluded, low, level = (
+            int(np.count_nonzero(k))
+            for k in (z > top + OCCLUDER_ABOVE, z < -BELOW_BOARD, abs(z) <= BELOW_BOARD)
+        )
     holes, inner_holes = 0, 0.0
-    if obj.rgb is not None and near.any():
-        own = median_chroma(obj.rgb, obj.rows[::4], obj.cols[::4])
-        holes, n_same = _holes(mask, ring, near, obj.rgb[crop], own, tol)
+    if obj.rgb is not None and near.any():  # missing depth of the object's colour: its holes
+        same = np.zeros(mask.shape, dtype=bool)
+        same[near] = of_colour(obj.rgb[crop][near], median_chroma(obj.rgb, obj.rows[::4], obj.cols[::4]), tol)
+        shadow = np.zeros_like(mask)  # the object's own stereo shadow: two pixels on its left
+        shadow[:, :-1] = mask[:, 1:]
+        shadow[:, :-2] |= mask[:, 2:]
+        holes = int(np.count_nonzero(ring & grow(shrink(same, 3), 3) & ~shadow))  # by 3 x 3 blocks of holes
+        n_same = int(np.count_nonzero(same))
         inner_holes = n_same / (n_same + obj.rows.size)
-    n = n_ring + edge
+    n = int(z.size) + edge
     lost = (edge + occluded + holes) / max(n, 1)
-    reasons = tuple(
-        name
-        for name, k in (("image_edge", edge), ("occluded", occluded), ("depth_holes", holes))
-        if k > 0.02 * n
-    )
-    return InView(
-        min(max(1.0 - 1.2 * lost, 0.0), 1.0),
-        reasons if lost > TRUNCATED else (),
-        lost,
-        inner_holes,
-        low / max(low + level, 1),
-    )
+    hidden = (("image_edge", edge), ("occluded", occluded), ("depth_holes", holes))
+    reasons = tuple(name for name, k in hidden if k > 0.02 * n) if lost > TRUNCATED else ()
+    return InView(min(max(1.0 - 1.2 * lost, 0.0), 1.0), reasons, lost, inner_holes, low / max(low + level, 1))

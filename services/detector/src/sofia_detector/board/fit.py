@@ -67,15 +67,6 @@ def _grid_steps(A: np.ndarray) -> np.ndarray:
     return np.linalg.solve(G[:, :3], G[:, 3:])[:2].T  # type: ignore[no-any-return]
 
 
-def _grid_outline_points(m: np.ndarray, band: float, half: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`_scattered_outline_points` of an organized cloud's coarse grid m (3, h, w) float32
-    (:func:`.grid.board_outline`; below the top within :data:`EDGE_REACH_PX` cells)."""
-    xy, A, hits = board_outline(m, band, half[0], half[1], _reach_steps(EDGE_REACH_PX))
-    if xy.shape[0] == 0:
-        return np.empty((0, 2)), np.empty((0, 2))
-    return xy, _towards(hits, EDGE_REACH_PX, _grid_steps(A))
-
-
 def _scattered_outline_points(m: np.ndarray, band: float, half: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Points on the outline of the board top, (k, 2) plane frame, and the direction from each to
     what lies below the board beside it (:func:`_towards`): 0 where the top is cut short by missing
@@ -119,8 +110,11 @@ def fit_board(coarse_base: np.ndarray, board: Board, params: DetectorParams) -> 
     T_base_plane = board.T_base_board @ T_cp
     m = change_frame(q, T_cp)
     half = np.array([ex / 2, ey / 2]) + params.outline_margin
-    outline_points = _grid_outline_points if m.ndim == 3 else _scattered_outline_points
-    outline_xy, drop_xy = outline_points(m, params.outline_band, half)
+    if m.ndim == 3:  # the top's outline on every second cell of the grid (plenty)
+        outline_xy, A, hits = board_outline(m, params.outline_band, *half, _reach_steps(EDGE_REACH_PX))
+        drop_xy = _towards(hits, EDGE_REACH_PX, _grid_steps(A))
+    else:
+        outline_xy, drop_xy = _scattered_outline_points(m, params.outline_band, half)
     if outline_xy.shape[0] < 8:  # too little of the board top: it lies where it is configured
         return BoardFit(T_base_plane.copy(), T_base_plane, plane, None, m)
     outline = fit_outline(outline_xy, board.extent, params.max_board_yaw, params.max_rim, drop_xy)

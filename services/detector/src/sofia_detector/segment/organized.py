@@ -19,13 +19,6 @@ MIN_PART = 10  # pixels of the smallest part standing on an object that is joine
 PART_MARGIN = 0.005  # metres
 
 
-def _covers(r0: int, c0: int, mask: np.ndarray, rows: np.ndarray, cols: np.ndarray) -> bool:
-    """True when any pixel (rows, cols) lies in ``mask`` placed at (r0, c0)."""
-    r, c = rows - r0, cols - c0
-    ok = (r >= 0) & (r < mask.shape[0]) & (c >= 0) & (c < mask.shape[1])
-    return bool(mask[r[ok], c[ok]].any())
-
-
 def organized_objects(
     points_base: np.ndarray,
     m_coarse: np.ndarray,
@@ -47,7 +40,7 @@ def organized_objects(
         m_coarse, levels.seed, params.max_height, levels.delta_coarse, rgb_coarse, levels.colour_tol
     )
     seeds, labels, n = raised.mask, raised.labels, raised.n
-    claimed: list[tuple[int, int, np.ndarray]] = []  # (row, col, mask) of the objects found so far
+    claimed = np.zeros((H, W), dtype=bool)  # the pixels of the objects found so far
     pad = 2
     for i, sl in enumerate(ndimage.find_objects(labels, max_label=n), start=1):
         if sl is None:
@@ -60,7 +53,7 @@ def organized_objects(
         if not inside(T_board_plane[:2, :2] @ xy_plane + T_board_plane[:2, 3], half):
             continue  # clutter beside the board
         rows, cols = (sr + sl[0].start) * s, (sc + sl[1].start) * s  # full-resolution seed pixels
-        if any(_covers(r, c, m, rows, cols) for r, c, m in claimed):
+        if claimed[rows, cols].any():
             continue  # a second seed of an object already found (holes in the cloud split it)
         r0, r1 = max((sl[0].start - pad) * s, 0), min((sl[0].stop + pad) * s, H)
         c0, c1 = max((sl[1].start - pad) * s, 0), min((sl[1].stop + pad) * s, W)
@@ -78,7 +71,7 @@ def organized_objects(
         obj = np.isin(wl, pieces) if pieces.size > 1 else wl == pieces[0]
         if n_pieces > pieces.size:
             obj = _with_parts_on_top(wl, n_pieces, b, obj, pieces)
-        claimed.append((r0, c0, obj))
+        claimed[r0:r1, c0:c1] |= obj
         points, rows_obj, cols_obj = masked_points(b, obj)
         yield ObjectPoints(
             points, rows_obj, cols_obj, obj.shape, (r0, c0), (H, W), b,

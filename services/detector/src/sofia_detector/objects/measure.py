@@ -35,14 +35,9 @@ def measure_objects(
     board: Board,
     params: DetectorParams,
 ) -> list[DetectedObject]:
-    """The objects of one cloud, on red fields first, then by their number of points.
-
-    found: the segmented objects (:func:`..segment.find_objects`); cloud: (H, W, 3) organized or
-    (N, 3) points, base frame, metres; colours: uint8 of cloud's shape, or None; fit: the
-    measured board. Objects below the height floor, off the field grid, beside the board or
-    made of mixed pixels are dropped; objects of which depth saw only slivers are placed from
-    their colour silhouettes.
-    """
+    """The objects of one cloud (H, W, 3) or (N, 3), base frame, metres (colours: uint8 of its shape),
+    on red fields first, then by their number of points; those below the height floor, off the
+    field grid, beside the board or of mixed pixels dropped, slivers placed by their silhouettes."""
     organized = cloud.ndim == 3
 
     @cache

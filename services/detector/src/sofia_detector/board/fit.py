@@ -111,7 +111,9 @@ def fit_board(coarse_base: np.ndarray, board: Board, params: DetectorParams) -> 
     m = change_frame(q, T_cp)
     half = np.array([ex / 2, ey / 2]) + params.outline_margin
     if m.ndim == 3:  # the top's outline on every second cell of the grid (plenty)
-        outline_xy, A, hits = board_outline(m, params.outline_band, *half, _reach_steps(EDGE_REACH_PX))
+        outline_xy, A, hits = board_outline(
+            m, params.outline_band, half[0], half[1], _reach_steps(EDGE_REACH_PX)
+        )
         drop_xy = _towards(hits, EDGE_REACH_PX, _grid_steps(A))
     else:
         outline_xy, drop_xy = _scattered_outline_points(m, params.outline_band, half)

@@ -68,14 +68,10 @@ def _grid_steps(A: np.ndarray) -> np.ndarray:
 
 
 def _scattered_outline_points(m: np.ndarray, band: float, half: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Points on the outline of the board top, (k, 2) plane frame, and the direction from each to
-    what lies below the board beside it (:func:`_towards`): 0 where the top is cut short by missing
-    depth, the image border or something in front, not by its edge.
-
-    m: (3, n) float32 points, plane frame, metres. The top: the largest connected patch of points
-    within ``band`` of the plane and ``half`` (2,) of its centre on a grid of :data:`OUTLINE_CELL`;
-    below it: points lower than ``-band``, within :data:`EDGE_REACH_CELLS` cells.
-    """
+    """(k, 2) plane-frame points on the board top's outline and the :func:`_towards` from each (0
+    where missing depth, the image border or something in front cuts the top short). m: (3, n)
+    float32, plane frame, metres. The top: the largest patch of points within ``band`` of the plane
+    and ``half`` (2,) of its centre on a grid of :data:`OUTLINE_CELL`; below it: lower than ``-band``."""
     with np.errstate(invalid="ignore"):
         top = (np.abs(m[2]) < band) & (np.abs(m[0]) < half[0]) & (np.abs(m[1]) < half[1])
         low = (m[2] < -band) & (np.abs(m[0]) < half[0]) & (np.abs(m[1]) < half[1])

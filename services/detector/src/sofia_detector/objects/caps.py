@@ -67,8 +67,7 @@ def fit_cone_apex(b: np.ndarray, noise: float) -> tuple[np.ndarray, float, float
     (3, n) by Gauss-Newton, or None: a cone part of whose base is out of view, placed by its
     flanks' slope. It must fit better than a cap (0.8x its residual) or to :data:`CONE_NOISE`
     deviations, within three deviations plus 3 mm, slope above 0.5, apex no higher than twice the
-    highest point, every point within 1.2 base radii and some at :data:`REACH`, the tip on it.
-    """
+    highest point, every point within 1.2 base radii and some at :data:`REACH`, the tip on it."""
     x, y, h = (b[i].astype(np.float64) for i in range(3))
     m = np.array([x.mean(), y.mean()])
     u, v = x - m[0], y - m[1]  # centred for the cap fit

@@ -86,14 +86,12 @@ def estimate_object(
     colour_tol: float = 0.0,
     min_width: float = DetectorParams.min_width,
 ) -> ObjectEstimate:
-    """Footprint, height and centre of one object (board frame, metres; noise: the depth noise).
-
-    The top fit takes the points in the ellipse inscribed in 70 % of the footprint; the top is a cap
-    when ``d < -curvature`` (1/m) with t < -4, or its heights spread beyond the noise. A cone is
-    centred on its apex. A flat top's footprint: its points within 3 sigma of its height, and
-    (colour_tol > 0) missing depth of its colour (:mod:`.holes`). A top narrower than min_width is a
-    sliver: an upright round side then gives ``whole_xy``, ``whole_size``.
-    """
+    """Footprint, height and centre of one object (board frame, metres; noise: the depth noise). The
+    top fit takes the points in the ellipse inscribed in 70 % of the footprint; the top is a cap when
+    ``d < -curvature`` (1/m) with t < -4, or its heights spread beyond the noise. A cone is centred on
+    its apex. A flat top's footprint: its points within 3 sigma of its height, and (colour_tol > 0)
+    missing depth of its colour (:mod:`.holes`). A top narrower than min_width is a sliver: an
+    upright round side then gives ``whole_xy``, ``whole_size``."""
     b_all = obj.b
     n = b_all.shape[1]
     b = b_all[:, :: max(1, n // FIT_POINTS)]  # plenty for the fits

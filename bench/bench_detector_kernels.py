@@ -21,7 +21,6 @@ from typing import Any
 import numpy as np
 from bench_detector_real import CACHE_VERSION, load_case
 from sofia_detector import detect
-from sofia_detector.board import plane
 from sofia_detector.depth import clean
 from sofia_detector.geometry import points
 from sofia_detector.geometry.grid import max_filter, where
@@ -32,25 +31,6 @@ def np_points_in_frame(p_a: np.ndarray, R_t: np.ndarray, offset: np.ndarray) -> 
     """``points._points_in_frame`` in numpy: elementwise, float32 (BLAS would thread)."""
     x, y, z = np.moveaxis(p_a, -1, 0).astype(np.float32)
     return np.stack([R_t[i, 0] * x + R_t[i, 1] * y + R_t[i, 2] * z - offset[i] for i in range(3)])
-
-
-def np_refits(
-    x: np.ndarray, y: np.ndarray, z: np.ndarray, thresholds: np.ndarray, min_points: int
-) -> tuple[float, float, float, float, int]:
-    """``plane._refits`` in numpy: the normal equations of each refit, ``A A^T`` and a 3 x 3 solve."""
-    A = np.stack([x, y, np.ones(z.size)]).astype(np.float64)
-    z = z.astype(np.float64)
-    coef, n_in = np.array([0.0, 0.0, z.mean()]), 0
-    for thr in thresholds:
-        inl = np.abs(z - coef @ A) < thr
-        n_in = int(np.count_nonzero(inl))
-        if n_in < min_points:
-            return coef[2], coef[0], coef[1], np.nan, n_in
-        B = np.compress(inl, A, axis=1)
-        coef = np.linalg.solve(B @ B.T, B @ z[inl])
-    r = z - coef @ A
-    r = r[np.abs(r) < thresholds[-1]]
-    return coef[2], coef[0], coef[1], float(np.sqrt(np.mean(r * r))), n_in
 
 
 NEIGHBOURS = np.array([(i, j) for i in (-1, 0, 1) for j in (-1, 0, 1) if i or j])
@@ -102,7 +82,6 @@ def same(a: Any, b: Any) -> bool:
 
 KERNELS: dict[str, tuple[Any, str, Callable[..., Any]]] = {
     "points._points_in_frame": (points, "_points_in_frame", np_points_in_frame),
-    "plane._refits": (plane, "_refits", np_refits),
     "clean._consistent_at": (clean, "_consistent_at", np_consistent_at),
     "clean._bridge": (clean, "_bridge", np_bridge),
 }

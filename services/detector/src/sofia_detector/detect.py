@@ -23,10 +23,8 @@ OUTLINE_CUT = (
 
 
 def as_cloud(points: object) -> np.ndarray:
-    """Validate a cloud: (N, 3) or organized (H, W, 3) real numbers (NaN and inf mark missing points).
-
-    Raises :class:`BadCloud` naming the received shape or dtype. Arrays are not copied.
-    """
+    """The cloud, not copied: (N, 3) or (H, W, 3) real numbers (NaN, inf: missing), else
+    :class:`BadCloud` naming the shape or dtype received."""
     try:
         arr = np.asarray(points)
     except (TypeError, ValueError) as e:
@@ -62,15 +60,12 @@ def detect(
     source: str | None = None,
     rgb: object = None,
 ) -> Detection:
-    """Every object lying on the board.
+    """Every object lying on the board, objects on red fields first.
 
-    points: (N, 3) or organized (H, W, 3) float, the board's frame (``board.frame_id``, usually the
-    robot base), metres; NaN or inf mark missing points. board: the configured board; its plane,
-    position and yaw are measured from the cloud near it. Returns a :class:`Detection` with the
-    objects on red fields first; ``status`` is ``no_object`` for an empty board and ``no_board``
-    when the board is not in the cloud. rgb: colours aligned with the points ((N, 3) or (H, W, 3)
-    uint8), which name each object's colour and join the pieces of dark objects. Raises
-    :class:`BadCloud` for arrays that are not clouds.
+    points: (N, 3) or (H, W, 3) float, ``board.frame_id`` (the robot base), metres; NaN or inf
+    missing. board: its plane, position and yaw are measured near the configured one. rgb: uint8
+    colours of the points' shape. ``status``: ``no_object`` for an empty board, ``no_board`` when
+    it is not in the cloud. Raises :class:`BadCloud` for arrays that are not clouds.
     """
     t0 = time.perf_counter()
     cloud = as_cloud(points)

@@ -25,14 +25,10 @@ EDGE_REACH_CELLS = 5  # occupancy cells: also the strip of table the board's sid
 
 @dataclass(frozen=True)
 class BoardFit:
-    """The measured board.
-
-    T_base_board: (4, 4) measured board frame (origin at the board centre on its surface, z along
-    the measured normal, x along the board rows). T_base_plane: (4, 4) the plane frame (see
-    :mod:`.plane`). plane: the robust plane fit. outline: the board rectangle (None when too few
-    board-top points were seen). m_coarse: (3, ...) float32 coordinates of the coarse points in
-    the plane frame, for seeding objects.
-    """
+    """The measured board: T_base_board (4, 4), origin at the board centre on its surface, z along
+    the measured normal, x along the board rows; T_base_plane (4, 4) (:mod:`.plane`); outline None
+    when too little of the board top was seen; m_coarse (3, ...) float32 coarse points, plane
+    frame, metres."""
 
     T_base_board: np.ndarray
     T_base_plane: np.ndarray
@@ -46,68 +42,36 @@ class BoardFit:
         return invert(self.T_base_board) @ self.T_base_plane  # type: ignore[no-any-return]
 
 
-def _drops(low: np.ndarray, r: np.ndarray, c: np.ndarray, reach: int, steps_xy: np.ndarray) -> np.ndarray:
-    """(k, 2) plane-frame direction (not normalised) from each outline cell ``(r, c)`` (k,) of a
-    grid towards the cells of ``low`` (h, w) bool within ``reach`` cells of it along the grid's
-    row and column (0 where none): where the board top drops to something below it. steps_xy:
-    (2, 2) plane-frame step of one grid row (column 0) and one grid column (column 1), metres."""
-    return _towards(reach_hits(low, r, c, _reach_steps(reach)), reach, steps_xy)
-
-
 def _towards(hits: np.ndarray, reach: int, steps_xy: np.ndarray) -> np.ndarray:
-    """(k, 2) :func:`_drops` from its :func:`.board_grid.reach_hits` (k, 4 reach) bool."""
+    """(k, 2) plane-frame direction (not normalised) from each outline cell towards the cells
+    below the board top it reaches (:func:`.grid.reach_hits` (k, 4 reach) bool), 0 where none.
+    steps_xy: (2, 2) plane-frame step of one grid row (column 0) and one column (column 1)."""
     return hits @ (_reach_steps(reach) @ steps_xy.T)  # type: ignore[no-any-return]
 
 
 @lru_cache(maxsize=8)
 def _reach_steps(reach: int) -> np.ndarray:
     """(4 reach, 2) read-only (row, column) steps 1..reach down, up, right and left."""
-    d = np.arange(1, reach + 1)
-    z = np.zeros(reach, dtype=np.int64)
-    out = np.concatenate(
-        [np.stack([d, z], 1), np.stack([-d, z], 1), np.stack([z, d], 1), np.stack([z, -d], 1)]
-    )
+    d = np.arange(1, reach + 1, dtype=np.int64)
+    out = np.concatenate([np.outer(d, step) for step in ((1, 0), (-1, 0), (0, 1), (0, -1))])
     out.flags.writeable = False
     return out
 
 
 def _grid_steps(A: np.ndarray) -> np.ndarray:
-    """(2, 2) plane-frame step of one grid row (column 0) and one grid column (column 1), metres:
-    the affine fit of plane-frame points to their grid cells, from the rows ``(row, col, 1, x, y)``
-    of ``A`` (k, 5) float64 (the identity when the points lie on a line)."""
+    """(2, 2) plane-frame step of one grid row (column 0) and column (column 1), metres: the affine
+    fit of rows ``(row, col, 1, x, y)`` of ``A`` (k, 5) float64; the identity for collinear cells."""
     G = A[:, :3].T @ A  # the normal equations (3, 5): numpy's least-squares call costs 20x their solve
     if not abs(np.linalg.det(G[:, :3])) > 1e-12 * abs(G[0, 0] * G[1, 1] * G[2, 2]):
         return np.eye(2)
     return np.linalg.solve(G[:, :3], G[:, 3:])[:2].T  # type: ignore[no-any-return]
 
 
-def _grid_outline_points(m: np.ndarray, band: float, half: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Points on the outline of the board top of an organized cloud, and where the top drops beside
-    them (:func:`_scattered_outline_points`' results).
-
-    m: (3, h, w) float32 coarse grid, plane frame, metres. The board top is the largest
-    8-connected patch of cells within ``band`` of the plane and ``half`` (2,) of its centre,
-    taken on every second cell (plenty); cells lower than ``-band`` lie below it, within
-    :data:`EDGE_REACH_PX` cells. Returns (k, 2) float32 and (k, 2) float64 plane-frame vectors.
-    """
-    xy, A, hits = board_outline(m, band, half[0], half[1], _reach_steps(EDGE_REACH_PX))
-    if xy.shape[0] == 0:
-        return np.empty((0, 2)), np.empty((0, 2))
-    return xy, _towards(hits, EDGE_REACH_PX, _grid_steps(A))
-
-
 def _scattered_outline_points(m: np.ndarray, band: float, half: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Points on the outline of the board top of an unorganized cloud, and where the board top
-    drops beside them.
-
-    m: (3, n) float32 points, plane frame, metres. The board top: the largest connected patch of
-    the points within ``band`` of the plane and ``half`` (2,) of its centre on an occupancy grid
-    of :data:`OUTLINE_CELL` cells over ``[-half, half]``; the points lower than ``-band`` lie below
-    it. Returns (k, 2) plane-frame cell centres and (k, 2) the direction from each to what lies
-    below the board within :data:`EDGE_REACH_CELLS` cells (which also span the table the board's
-    side hides), 0 where nothing does: there the board top is cut short by missing depth, the
-    image border or something standing in front, not by its edge.
-    """
+    """(k, 2) plane-frame points on the board top's outline and the :func:`_towards` from each (0
+    where missing depth, the image border or something in front cuts the top short). m: (3, n)
+    float32, plane frame, metres. The top: the largest patch of points within ``band`` of the plane
+    and ``half`` (2,) of its centre on a grid of :data:`OUTLINE_CELL`; below it: lower than ``-band``."""
     with np.errstate(invalid="ignore"):
         top = (np.abs(m[2]) < band) & (np.abs(m[0]) < half[0]) & (np.abs(m[1]) < half[1])
         low = (m[2] < -band) & (np.abs(m[0]) < half[0]) & (np.abs(m[1]) < half[1])
@@ -124,16 +88,13 @@ def _scattered_outline_points(m: np.ndarray, band: float, half: np.ndarray) -> t
         return np.empty((0, 2)), np.empty((0, 2))
     r, c = grid_boundary(comp)
     xy = (np.stack([r, c], axis=1) + 0.5) * OUTLINE_CELL - half
-    return xy, _drops(occupancy(low), r, c, EDGE_REACH_CELLS, OUTLINE_CELL * np.eye(2))
+    hits = reach_hits(occupancy(low), r, c, _reach_steps(EDGE_REACH_CELLS))
+    return xy, _towards(hits, EDGE_REACH_CELLS, OUTLINE_CELL * np.eye(2))
 
 
 def fit_board(coarse_base: np.ndarray, board: Board, params: DetectorParams) -> BoardFit | None:
-    """Measure the board from a coarse cloud.
-
-    coarse_base: (h, w, 3) organized or (n, 3) float points (any strides), base frame, metres, NaN
-    allowed. Returns None when fewer than :data:`MIN_BOARD_POINTS` points lie near the configured
-    board.
-    """
+    """The board measured from coarse_base (h, w, 3) or (n, 3) float points (any strides), base
+    frame, metres, NaN allowed; None when fewer than :data:`MIN_BOARD_POINTS` lie near it."""
     q = points_in_frame(coarse_base, board.T_base_board)
     ex, ey = board.extent
     lim_x, lim_y = (e / 2 - params.board_shrink for e in (ex, ey))
@@ -145,8 +106,13 @@ def fit_board(coarse_base: np.ndarray, board: Board, params: DetectorParams) -> 
     T_base_plane = board.T_base_board @ T_cp
     m = change_frame(q, T_cp)
     half = np.array([ex / 2, ey / 2]) + params.outline_margin
-    outline_points = _grid_outline_points if m.ndim == 3 else _scattered_outline_points
-    outline_xy, drop_xy = outline_points(m, params.outline_band, half)
+    if m.ndim == 3:  # the top's outline on every second cell of the grid (plenty)
+        outline_xy, A, hits = board_outline(
+            m, params.outline_band, half[0], half[1], _reach_steps(EDGE_REACH_PX)
+        )
+        drop_xy = _towards(hits, EDGE_REACH_PX, _grid_steps(A))
+    else:
+        outline_xy, drop_xy = _scattered_outline_points(m, params.outline_band, half)
     if outline_xy.shape[0] < 8:  # too little of the board top: it lies where it is configured
         return BoardFit(T_base_plane.copy(), T_base_plane, plane, None, m)
     outline = fit_outline(outline_xy, board.extent, params.max_board_yaw, params.max_rim, drop_xy)

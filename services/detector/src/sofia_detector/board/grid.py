@@ -1,5 +1,4 @@
-"""The board fit's steps on the coarse grid: its plane candidates, and the outline of an organized
-cloud's board top with what lies below it beside each outline cell."""
+"""The board fit's steps on the coarse grid: plane candidates, the board top's outline."""
 
 from __future__ import annotations
 
@@ -9,17 +8,16 @@ from ..geometry.grid import grid_boundary, largest_component
 
 
 def plane_candidates(q: np.ndarray, lim_x: float, lim_y: float, band: float, max_points: int) -> np.ndarray:
-    """(3, k) float32 points of ``q`` (3, n) float32 (configured board frame, metres, NaN allowed)
-    with ``|x| < lim_x``, ``|y| < lim_y`` and ``|z| < band``, every ``max(1, count // max_points)``-th
-    of them in order."""
+    """(3, k) float32: every ``max(1, count // max_points)``-th point of q (3, n) float32 (configured
+    board frame, metres, NaN allowed) with ``|x| < lim_x``, ``|y| < lim_y``, ``|z| < band``."""
     with np.errstate(invalid="ignore"):
         at = np.flatnonzero((np.abs(q[0]) < lim_x) & (np.abs(q[1]) < lim_y) & (np.abs(q[2]) < band))
     return q[:, at[:: max(1, at.size // max_points)]]  # type: ignore[no-any-return]
 
 
 def reach_hits(low: np.ndarray, r: np.ndarray, c: np.ndarray, steps: np.ndarray) -> np.ndarray:
-    """(k, s) bool: whether ``low`` (h, w) bool is set at each of the ``steps`` (s, 2) int (row,
-    column) from each cell ``(r, c)`` (k,) (:func:`.board_fit._reach_steps`); False off the grid."""
+    """(k, s) bool: ``low`` (h, w) bool at each of the ``steps`` (s, 2) int (row, column) from each
+    cell ``(r, c)`` (k,); False off the grid."""
     rr, cc = r[:, None] + steps[:, 0], c[:, None] + steps[:, 1]
     on = (rr >= 0) & (rr < low.shape[0]) & (cc >= 0) & (cc < low.shape[1])
     hits = np.zeros(rr.shape, dtype=bool)
@@ -30,15 +28,11 @@ def reach_hits(low: np.ndarray, r: np.ndarray, c: np.ndarray, steps: np.ndarray)
 def board_outline(
     m: np.ndarray, band: float, half_x: float, half_y: float, steps: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The outline of the board top on every second cell of an organized coarse grid.
-
-    m: (3, h, w) float32, plane frame, metres, NaN allowed. The board top: cells within ``band`` of
-    the plane, within ``half_x``, ``half_y`` of its centre; below it: cells lower than ``-band``.
-    Returns (k, 2) float32 plane-frame points at :func:`.outline.grid_boundary` of the top's
-    largest 8-connected patch, (k, 5) float64 rows ``(row, col, 1, x, y)`` of those cells (for
-    the grid-step fit), and (k, s) bool :func:`reach_hits` of the cells below the top at ``steps``
-    (s, 2) from each; k is 0 when no cell is on the top.
-    """
+    """The board top's outline on every second cell of m (3, h, w) float32 (plane frame, metres):
+    the top, cells within ``band`` of the plane and ``half_x``, ``half_y`` of its centre; below it,
+    cells lower than ``-band``. Returns (k, 2) float32 points at the :func:`grid_boundary` of the
+    top's largest patch, (k, 5) float64 rows ``(row, col, 1, x, y)`` and (k, s) :func:`reach_hits`
+    of the cells below at ``steps`` (s, 2)."""
     x, y, z = m[:, ::2, ::2]
     with np.errstate(invalid="ignore"):
         top = (np.abs(z) < band) & (np.abs(x) < half_x) & (np.abs(y) < half_y)

@@ -1,9 +1,5 @@
-"""Rectangles around 2-D point sets, and where the board lies in its plane.
-
-The board top's outline gives the yaw (least-area rectangle) and the centre: the midpoint of
-opposite edges where both drop to the table; half the fields and a rim inside the one edge seen
-where the other is cut short (missing depth, the image border, the fingers).
-"""
+"""Where the board lies in its plane: the yaw of the least-area rectangle around its top's outline,
+the centre between opposite edges, or half the fields and a rim inside the one edge seen."""
 
 from __future__ import annotations
 
@@ -27,9 +23,9 @@ class Outline:
 def _side_counts(
     xy: np.ndarray, drop_xy: np.ndarray | None, R: np.ndarray, side_band: float
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Per side of a rectangle (x lo, y lo, x hi, y hi; axes the columns of ``R`` (2, 2)): how many
-    of the points ``xy`` (k, 2) lie within ``side_band`` of the outermost one, and how many of those
-    drop outwards (``drop_xy`` (k, 2) within 60 degrees of the side's normal; None: all do)."""
+    """Per side (x lo, y lo, x hi, y hi; axes the columns of ``R`` (2, 2)): how many of xy (k, 2) lie
+    within ``side_band`` of the outermost, and how many of those drop outwards (``drop_xy`` (k, 2)
+    within 60 degrees of the side's normal; None: all)."""
     uv = xy @ R
     u = np.concatenate([-uv, uv], axis=1).T  # (4, k) outwards of each side
     near = u >= u.max(axis=1, keepdims=True) - side_band
@@ -51,22 +47,16 @@ def fit_outline(
     side_band: float = 0.015,
     edge_share: float = 0.3,
 ) -> Outline:
-    """The board rectangle from its outline points.
+    """The board rectangle from boundary_xy (k, 2), points including its outline (plane frame,
+    metres). field_extent: the field grid's size along board x and y. drop_xy: (k, 2) direction
+    from each point to what lies below the board beside it, 0 where nothing does; None: all the
+    outline is the board's edge. A side is an edge when ``edge_share`` of the points within
+    ``side_band`` of it drop outwards (within 60 degrees).
 
-    boundary_xy: (k, 2) float, plane frame, metres: points on (or including) the outline.
-    field_extent: size of the field grid along the board x and y, metres. drop_xy: (k, 2)
-    direction (any length) from each point to what lies below the board beside it, 0 where nothing
-    does (the board top cut short by missing depth, the image border or something in front of it);
-    None: the whole outline is the board's edge. A side of the rectangle is an edge of the board
-    when at least ``edge_share`` of the points within ``side_band`` metres of it drop outwards
-    (within 60 degrees); the rest may be hidden by the fingers or objects standing on the edge.
-
-    Per axis: with both sides edges and a size within ``[extent - 1 cm, extent + 2 max_rim]``, the
-    centre is their midpoint (the axis is complete). With one side an edge, the board ends there:
-    the centre lies half the fields and a rim inside it, the rim measured on the other axis when
-    that one is complete, else ``max_rim / 2``. With neither, the midpoint when the size is
-    within the range above, else the configured 0. A size beyond ``extent + 2 max_rim`` (the board
-    top merged with something at board height) keeps the configured 0 as well.
+    Per axis: both sides edges and a size within ``[extent - 1 cm, extent + 2 max_rim]``: their
+    midpoint (complete). One side an edge: half the fields and a rim inside it (the rim measured on
+    the other axis when complete, else ``max_rim / 2``). Neither: the midpoint when the size is in
+    that range, else the configured 0, as for a size beyond it (the top merged with something).
     """
     rect = min_area_rect(boundary_xy, max_yaw)
     R = rect.R

@@ -1,8 +1,6 @@
-"""Real depth on the organized grid: flying pixels, depth noise, holes bridged by colour.
-
-A flying pixel (stereo matching across a depth edge) seldom has two neighbours within a few pixel
-spacings in 3D; a point on a real surface has. Dark surfaces lose depth in blobs but keep their
-colour, so missing pixels of an object's colour join its pieces.
+"""Real depth on the organized grid. A flying pixel (stereo matching across a depth edge) seldom
+has two neighbours within a few pixel spacings in 3D, a point on a real surface has; dark surfaces
+lose depth in blobs but keep their colour, so missing pixels of an object's colour join its pieces.
 """
 
 from __future__ import annotations
@@ -21,9 +19,8 @@ EIGHT = np.ones((3, 3), dtype=bool)
 
 @jit
 def _consistent_at(c: np.ndarray, mask: np.ndarray, d2: np.float32, min_neighbours: int) -> np.ndarray:
-    """:func:`consistent_at` in one pass. Kept: 38 us against 284 us per call (median) for its
-    numpy form (the 8 neighbours of the mask's pixels gathered at once), 0.12 against 0.85 ms per
-    cloud on 28 realistic scenes (``bench/bench_detector_kernels.py``)."""
+    """:func:`consistent_at` in one pass. Kept: 38 us against 284 us per call for its numpy form
+    (0.12 against 0.85 ms per cloud) on 28 realistic scenes."""
     _, h, w = c.shape
     out = np.zeros((h, w), dtype=np.bool_)
     for r in range(h):
@@ -42,21 +39,15 @@ def _consistent_at(c: np.ndarray, mask: np.ndarray, d2: np.float32, min_neighbou
 
 
 def consistent_at(c: np.ndarray, mask: np.ndarray, delta: float, min_neighbours: int = 2) -> np.ndarray:
-    """``mask`` (h, w) bool keeping only its pixels with at least ``min_neighbours`` of their 8
-    neighbours within ``delta`` (3D distance, metres) of them: flying pixels go.
-
-    c: (3, h, w) float32 coordinates of an organized cloud (any frame), metres, NaN allowed (NaN
-    pixels are never within ``delta``).
-    """
+    """``mask`` (h, w) bool without flying pixels: only pixels with ``min_neighbours`` of their 8
+    neighbours within ``delta`` metres in 3D. c: (3, h, w) float32, any frame, metres, NaN allowed."""
     c = np.ascontiguousarray(c, dtype=np.float32)
     return _consistent_at(c, np.ascontiguousarray(mask), np.float32(delta * delta), min_neighbours)  # type: ignore[no-any-return]
 
 
 def pixel_spacing(m: np.ndarray, stride: int) -> float:
-    """Median distance between horizontally adjacent pixels of the full-resolution image, metres.
-
-    m: (3, h, w) float32 coordinates of the coarse grid (every ``stride``-th pixel), metres.
-    """
+    """Median distance (metres) of horizontally adjacent full-resolution pixels, from the coarse
+    grid m (3, h, w) float32 of every ``stride``-th pixel."""
     with np.errstate(invalid="ignore", over="ignore"):
         d = np.linalg.norm(np.diff(m[:, ::8], axis=2), axis=0)
     d = d[np.isfinite(d)]
@@ -71,8 +62,7 @@ def chroma(rgb: np.ndarray) -> np.ndarray:
 
 
 def median_chroma(rgb: np.ndarray, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
-    """(4,) :func:`chroma` of the median colour of the pixels (rows, cols) (n,) of ``rgb`` (h, w, 3)
-    uint8: an object's own colour."""
+    """(4,) :func:`chroma` of the median colour of pixels (rows, cols) (n,) of rgb (h, w, 3) uint8."""
     return chroma(median(rgb[rows, cols]))
 
 
@@ -82,8 +72,7 @@ def of_colour(px: np.ndarray, own: np.ndarray, tol: float) -> np.ndarray:
 
 
 def label_means(labels: np.ndarray, values: np.ndarray, n: int) -> np.ndarray:
-    """(n + 1, k) float64 mean of ``values`` (m, k) per label of ``labels`` (m,) int in 0..n (0 for
-    a label without values)."""
+    """(n + 1, k) float64 mean of values (m, k) per label 0..n of labels (m,) int (0 when empty)."""
     counts = np.bincount(labels, minlength=n + 1).astype(np.float64)
     sums = np.stack(
         [np.bincount(labels, weights=values[:, c], minlength=n + 1) for c in range(values.shape[1])], axis=1
@@ -99,8 +88,8 @@ def colour_distance(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 @dataclass(frozen=True)
 class Raised:
-    """The pixels standing above the board: mask (h, w) bool without flying pixels, and their
-    components, labels (h, w) int32 numbered 1..n (0 off them; bridged pixels included)."""
+    """Pixels above the board: mask (h, w) bool without flying pixels; labels (h, w) int32 1..n of
+    their components (0 off them; bridged pixels included)."""
 
     mask: np.ndarray
     labels: np.ndarray
@@ -110,13 +99,9 @@ class Raised:
 def raised_pixels(
     c: np.ndarray, lo: float, hi: float, delta: float, rgb: np.ndarray | None = None, tol: float = 0.0
 ) -> Raised:
-    """The depth stage's entry: the pixels of an organized grid between ``lo`` and ``hi`` above the
-    board, without flying pixels (:func:`consistent_at` within ``delta`` metres), in components
-    joined across missing depth of their colour (:func:`bridge`; rgb None: plain 8-connected).
-
-    c: (3, h, w) float32 coordinates with z the height above the board, metres, NaN where missing;
-    rgb: (h, w, 3) uint8 aligned colours; tol: colour distance of the bridged pixels.
-    """
+    """The depth stage: pixels of c (3, h, w) float32 (z the height above the board, metres, NaN
+    where missing) between ``lo`` and ``hi``, without flying pixels (:func:`consistent_at`), in
+    components joined across missing depth of their colour (:func:`bridge`; rgb (h, w, 3) uint8)."""
     with np.errstate(invalid="ignore"):
         mask = consistent_at(c, (c[2] > lo) & (c[2] < hi), delta)
     labels, n = label8(mask) if rgb is None else bridge(mask, ~np.isfinite(c[2]), rgb, tol)
@@ -126,13 +111,9 @@ def raised_pixels(
 def bridge(
     seeds: np.ndarray, invalid: np.ndarray, rgb: np.ndarray | None, tol: float, steps: int = 3
 ) -> tuple[np.ndarray, int]:
-    """Components of ``seeds`` (h, w) bool joined across ``invalid`` (h, w) pixels of their colour.
-
-    rgb: (h, w, 3) uint8 colours aligned with the grid, or None (no bridging). Each seed
-    component grows up to ``steps`` pixels into invalid pixels within ``tol`` of its mean
-    :func:`chroma`. Returns (labels (h, w) int, n) of the joined components (grown pixels
-    included).
-    """
+    """(labels (h, w) int, n): components of ``seeds`` (h, w) bool, each grown up to ``steps``
+    pixels into ``invalid`` (h, w) pixels within ``tol`` of its mean :func:`chroma` (rgb (h, w, 3)
+    uint8; None: no bridging), joined where they meet."""
     labels, n = label8(seeds)
     if rgb is None or n < 2 or not invalid.any():
         return labels, n
@@ -153,12 +134,10 @@ def _chroma_px(px: np.ndarray) -> tuple[float, float, float, float]:
 def _bridge(
     labels: np.ndarray, n: int, todo: np.ndarray, rgb: np.ndarray, tol: float, steps: int
 ) -> tuple[np.ndarray, bool]:
-    """``labels`` (h, w) int32 (1..n) grown ``steps`` times into the ``todo`` (h, w) pixels (missing,
-    within ``steps`` pixels of them) whose :func:`chroma` is within ``tol`` of the mean chroma of the
-    largest label among their 8 neighbours (all pixels of a step look at the labels before it);
-    and whether any pixel joined. rgb: (h, w, 3) uint8. Kept: 29 us against 258 us per call
-    (median) for its numpy form (a 3 x 3 max filter and the reached pixels' chroma per step) on 28
-    realistic scenes (``bench/bench_detector_kernels.py``)."""
+    """``labels`` (h, w) int32 (1..n) grown ``steps`` times into the ``todo`` pixels whose chroma is
+    within ``tol`` of the mean of the largest label among their 8 neighbours (as before the step),
+    and whether any pixel joined. Kept: 29 us against 258 us per call for its numpy form on 28
+    realistic scenes."""
     h, w = labels.shape
     mean = np.zeros((n + 1, 4))  # the labels' mean chroma
     counts = np.zeros(n + 1)

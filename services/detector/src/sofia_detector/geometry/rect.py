@@ -22,8 +22,7 @@ class Rect:
 
     @cached_property
     def R(self) -> np.ndarray:
-        """(2, 2) rotation whose columns are the rectangle axes (computed once per rectangle: the
-        detector reads it, the centre and the size many times)."""
+        """(2, 2) rotation whose columns are the rectangle axes (cached, as the centre and size)."""
         c, s = math.cos(self.yaw), math.sin(self.yaw)
         return _read_only(np.array([[c, -s], [s, c]]))
 
@@ -39,8 +38,7 @@ class Rect:
 
 
 def _read_only(a: np.ndarray) -> np.ndarray:
-    """``a``, marked read-only: a rectangle's cached values are shared by whoever reads them."""
-    a.flags.writeable = False
+    a.flags.writeable = False  # a rectangle's cached values are shared by whoever reads them
     return a
 
 
@@ -55,12 +53,8 @@ def hull(xy: np.ndarray) -> np.ndarray:
 
 
 def min_area_rect(xy: np.ndarray, max_yaw: float | None = None) -> Rect:
-    """Minimum-area rectangle of 2-D points: one of its sides lies along an edge of their convex hull.
-
-    xy: (k, 2) float, metres, k >= 1. max_yaw: if given, only yaws in ``[-max_yaw, max_yaw]`` are
-    considered (0 when no hull edge is in range). OpenCV's ``minAreaRect``, or when its yaw is not
-    allowed, the least over the allowed edges of the hull. The returned yaw is in ``[-pi/4, pi/4)``.
-    """
+    """Minimum-area rectangle of xy (k, 2), k >= 1, yaw in ``[-pi/4, pi/4)``: OpenCV's, or when
+    its yaw is beyond ``max_yaw``, the least over the hull edges within it (yaw 0 when none is)."""
     xy = np.asarray(xy, dtype=np.float64)
     (cx, cy), size, angle = cv2.minAreaRect((xy - xy[0]).astype(np.float32))  # float32: 0.1 um here
     turned = math.radians(angle)

@@ -6,10 +6,8 @@ import numpy as np
 
 
 def median(x: np.ndarray) -> np.ndarray:
-    """Median along the first axis of ``x`` (n, ...), n >= 1, as ``np.median(x, axis=0)`` (integers
-    give float64): one ``np.partition``. ``np.median`` costs ~10 us more per call (dispatch, a
-    copy, a mean of the middle two), more than its work on samples of a few hundred values; the
-    detector takes a dozen medians per object."""
+    """``np.median(x, axis=0)`` of x (n, ...), n >= 1, by one ``np.partition``: ``np.median`` costs
+    ~10 us more per call (a copy, a mean), more than its work on the detector's small samples."""
     if x.dtype.kind != "f":
         x = x.astype(np.float64)
     h = x.shape[0] // 2

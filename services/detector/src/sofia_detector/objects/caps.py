@@ -1,6 +1,5 @@
-"""Curved tops: the cap ``h = a + b x + c y + d (x^2 + y^2)`` (a ball, a rounded top) and the
-cone ``h = a - k r`` (its apex, which the camera's sampling of the tip usually misses), from the
-object's board-frame points (z = height, metres).
+"""Curved tops from board-frame points (z = height, metres): the cap ``h = a + b x + c y +
+d (x^2 + y^2)`` (a ball) and the cone ``h = a - k r`` (its apex, which the sampling usually misses).
 """
 
 from __future__ import annotations
@@ -9,7 +8,6 @@ import math
 
 import numpy as np
 
-from ..geometry.lsq import solve_normal
 from ..geometry.rect import Rect
 from ..geometry.samples import median
 
@@ -18,20 +16,17 @@ CONE_NOISE = 2.0  # a cone's flanks fitted within this many depth noise deviatio
 
 
 def fit_top(x: np.ndarray, y: np.ndarray, h: np.ndarray) -> tuple[np.ndarray, float] | None:
-    """Least-squares ``h = a + b x + c y + d (x^2 + y^2)`` and the standard error of ``d``.
-
-    x, y: (n,) float, board frame, metres, centred near the top. h: (n,) heights, metres.
-    Returns ((a, b, c, d), se_d), or None when the system is singular or has too few points.
-    """
+    """((a, b, c, d), se_d): least-squares ``h = a + b x + c y + d (x^2 + y^2)`` of x, y, h (n,)
+    (metres, x, y centred near the top) and the standard error of d; None when singular."""
     if h.size < 8:
         return None
     x, y = np.asarray(x, dtype=np.float64), np.asarray(y, dtype=np.float64)
     A = np.stack([np.ones_like(x), x, y, x * x + y * y])  # (4, n)
     h = h.astype(np.float64)
-    sol = solve_normal(A, h)
-    if sol is None:
+    M = A @ A.T  # normal equations: 58 us against 544 us for an SVD lstsq at 3000 points
+    if not abs(np.linalg.det(M)) > 1e-12 * np.prod(np.diag(M)):
         return None
-    coef, M = sol
+    coef = np.linalg.solve(M, A @ h)
     r = h - coef @ A
     inv_33 = np.linalg.inv(M)[3, 3]
     se_d = math.sqrt(float(r @ r) / (h.size - 4) * inv_33) if inv_33 >= 0 else math.nan
@@ -47,13 +42,9 @@ def _line_rms(x: np.ndarray, y: np.ndarray) -> tuple[float, float, float]:
 
 
 def fit_cone(b: np.ndarray, rect: Rect, noise: float) -> float | None:
-    """Apex height of a cone standing in footprint ``rect``, or None when ``b`` is no cone.
-
-    b: (3, n) board-frame points (z = height), metres. The heights within 80 % of the footprint's
-    inscribed radius must fall linearly with the distance from its centre (``h = a - k r``,
-    ``k`` > 0.5) within three depth noise deviations plus 3 mm, better than a cap; the apex is
-    ``a``, which the camera's sampling of the tip (mixed pixels, holes) usually misses.
-    """
+    """Apex height ``a`` of a cone standing in footprint ``rect``, or None: the heights of b (3, n)
+    within 80 % of the inscribed radius fall as ``h = a - k r`` (k > 0.5) within three depth noise
+    deviations plus 3 mm, better than a cap."""
     radius = 0.5 * float(min(rect.size))
     c = rect.center
     r_all = np.hypot(b[0].astype(np.float64) - c[0], b[1].astype(np.float64) - c[1])
@@ -72,20 +63,11 @@ def fit_cone(b: np.ndarray, rect: Rect, noise: float) -> float | None:
 
 
 def fit_cone_apex(b: np.ndarray, noise: float) -> tuple[np.ndarray, float, float] | None:
-    """A cone of unknown axis from its visible flanks: ``(apex_xy (2,), apex height, base radius)``
-    of ``h = a - k |xy - apex_xy|`` fitted by Gauss-Newton, or None when ``b`` is no cone.
-
-    For a cone part of whose base is out of view (its stereo shadow, depth holes, the image border)
-    the footprint rectangle is not its base, so :func:`fit_cone` cannot centre it. The flanks'
-    slope points at the apex from every side the camera sees, which places it. b: (3, n)
-    board-frame points (z = height), metres. The cone must fit better than a cap (:func:`fit_top`,
-    0.8x its residual) or to the depth noise (:data:`CONE_NOISE` deviations: a cap bent over one
-    flank of a cone, all that is seen of it beside the invalid band, fits it nearly as well),
-    within three depth noise deviations plus 3 mm, with a slope above 0.5, the apex no higher than
-    twice the highest point, every point within 1.2 base radii and some as far as :data:`REACH`
-    of it (the flanks reach the board), and the points near the apex on the cone (a bottle's flat
-    cap falls below it).
-    """
+    """``(apex_xy (2,), apex height, base radius)`` of ``h = a - k |xy - apex_xy|`` fitted to b
+    (3, n) by Gauss-Newton, or None: a cone part of whose base is out of view, placed by its
+    flanks' slope. It must fit better than a cap (0.8x its residual) or to :data:`CONE_NOISE`
+    deviations, within three deviations plus 3 mm, slope above 0.5, apex no higher than twice the
+    highest point, every point within 1.2 base radii and some at :data:`REACH`, the tip on it."""
     x, y, h = (b[i].astype(np.float64) for i in range(3))
     m = np.array([x.mean(), y.mean()])
     u, v = x - m[0], y - m[1]  # centred for the cap fit
@@ -116,9 +98,9 @@ def fit_cone_apex(b: np.ndarray, noise: float) -> tuple[np.ndarray, float, float
 def cone_gauss_newton(
     x: np.ndarray, y: np.ndarray, h: np.ndarray, p: np.ndarray, iters: int, tol: float
 ) -> np.ndarray:
-    """Least-squares ``h = a - k |(x, y) - (cx, cy)|`` by Gauss-Newton from ``p`` = (a, k, cx, cy)
-    (4,) float64; x, y, h (n,) float64, metres. Stops after ``iters`` steps or once the apex moves
-    less than ``tol`` metres; returns the parameters (4,) (NaN when a step cannot be solved)."""
+    """(a, k, cx, cy) of least-squares ``h = a - k |(x, y) - (cx, cy)|`` by Gauss-Newton from p (4,);
+    x, y, h (n,) float64, metres; ``iters`` steps or until the apex moves less than ``tol`` (NaN
+    when a step cannot be solved)."""
     p = p.astype(np.float64)
     for _ in range(iters):
         dx, dy = x - p[2], y - p[3]

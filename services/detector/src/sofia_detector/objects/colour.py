@@ -1,10 +1,6 @@
-"""Object colours by name, robust to shading and to the light's colour and brightness.
-
-The board's white fields are the reference white: an object's colour is the median over its upper
-faces, scaled per channel so the board looks like ``white_reference``, then named after the nearest
-palette colour in chromaticity and log brightness. A face tilted by theta gets ``(1 + cos theta) / 2``
-of the board's diffuse light (:func:`lit_share`); pixels are divided by it when the name could be a
-shaded brighter colour (grey, black).
+"""Object colours by name: the median over the upper faces, white-balanced on the board's white
+fields, named after the nearest palette colour in chromaticity and log brightness; divided by the
+diffuse light a tilted face gets (:func:`lit_share`) when the name could be a shaded brighter one.
 """
 
 from __future__ import annotations
@@ -19,30 +15,18 @@ from ..geometry.samples import median
 from ..params import DEFAULT_PALETTE
 
 WHITE_REFERENCE = (235.0, 235.0, 230.0)  # sRGB of the board's white fields in the palette's light
-
-
 MIN_WHITE_PIXELS = 20
-
-
 SAME_HUE = 0.1  # chromaticity distance of palette colours that differ by brightness alone
-
-
 WHITE_STEP = 3  # board_white samples every third row and column of the coarse grid
-
-
 NORMAL_STEP = 2  # pixels between the points whose differences give a face's normal
 
 
 def board_white(
     m_plane: np.ndarray, rgb_coarse: np.ndarray, T_board_plane: np.ndarray, board: Board, band: float
 ) -> np.ndarray | None:
-    """(3,) median observed colour of the board's white (not allowed) fields, or None.
-
-    m_plane: (3, h, w) float32 coarse coordinates, plane frame, metres. rgb_coarse: (h, w, 3)
-    uint8 colours of the same pixels (any strides). T_board_plane: (4, 4) plane frame in the board
-    frame. Pixels of every third row and column within ``band`` of the plane and in the middle
-    60 % of a white field count.
-    """
+    """(3,) median colour of the board's white fields, or None: pixels of m_plane (3, h, w)
+    float32 (plane frame, metres) and rgb_coarse (h, w, 3) uint8 on every third row and column,
+    within ``band`` of the plane and in the middle 60 % of a white field."""
     white_at = _white_fields(board)
     A = T_board_plane[:2, [0, 1, 3]]
     m, rgb = m_plane[:, ::WHITE_STEP, ::WHITE_STEP], rgb_coarse[::WHITE_STEP, ::WHITE_STEP]
@@ -63,24 +47,17 @@ def board_white(
 
 @lru_cache(maxsize=16)
 def _white_fields(board: Board) -> np.ndarray:
-    """(rows + 2, cols + 2) bool: the board's white (not allowed) fields, with a border of False
-    around them (off the board), once per board geometry."""
+    """(rows + 2, cols + 2) bool: the board's white fields, with a border of False around them."""
     white = np.zeros((board.rows + 2, board.cols + 2), dtype=bool)
-    for i in range(board.rows):
-        for j in range(board.cols):
-            white[i + 1, j + 1] = not board.is_allowed(i, j)
+    white[1:-1, 1:-1] = [[not board.is_allowed(i, j) for j in range(board.cols)] for i in range(board.rows)]
     return white
 
 
 def lit_share(window: np.ndarray, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
-    """(n,) light the faces at the pixels (rows, cols) (n,) receive relative to the board,
-    ``(1 + |n_z|) / 2`` (diffuse light from above); NaN where no normal is measured.
-
-    window: (3, h, w) float32 board-frame coordinates (z up), metres, NaN where depth is missing.
-    The normal of a pixel is the cross product of the differences between its neighbours
-    :data:`NORMAL_STEP` pixels away along the rows and along the columns. Pixels where the two
-    halves of a difference disagree (a depth step, a tip between them) measure no face.
-    """
+    """(n,) light ``(1 + |n_z|) / 2`` the faces at pixels (rows, cols) (n,) of window (3, h, w)
+    float32 (board frame, metres) get relative to the board; NaN where no normal is measured. The
+    normal: the cross product of the differences of the neighbours :data:`NORMAL_STEP` pixels
+    away; none where a difference's two halves disagree (a depth step)."""
     _, h, w = window.shape
     k = NORMAL_STEP
     if h <= 2 * k or w <= 2 * k:
@@ -102,8 +79,7 @@ def lit_share(window: np.ndarray, rows: np.ndarray, cols: np.ndarray) -> np.ndar
 
 @lru_cache(maxsize=16)
 def shaded_like_another(name: str, palette: tuple[tuple[str, tuple[int, int, int]], ...]) -> bool:
-    """True when shading could have turned another colour of ``palette`` into ``name``: one of
-    the same chromaticity (within :data:`SAME_HUE`) and brighter (grey, black: a shaded white)."""
+    """Whether ``name`` could be a shaded brighter colour of ``palette`` of its chromaticity."""
     feats = {n: chroma(np.array(p, dtype=np.float64)) for n, p in palette}
     mine = feats[name]
     return any(
@@ -114,7 +90,7 @@ def shaded_like_another(name: str, palette: tuple[tuple[str, tuple[int, int, int
 
 @lru_cache(maxsize=16)
 def _palette_chroma(palette: tuple[tuple[str, tuple[int, int, int]], ...]) -> np.ndarray:
-    """(k, 4) :func:`.depth_clean.chroma` of the k colours of ``palette``."""
+    """(k, 4) chroma of the k colours of ``palette``."""
     return chroma(np.array([p for _, p in palette], dtype=np.float64))
 
 
@@ -123,11 +99,8 @@ def name_colour(
     white: np.ndarray | None,
     palette: tuple[tuple[str, tuple[int, int, int]], ...] = DEFAULT_PALETTE,
 ) -> tuple[str, tuple[int, int, int]]:
-    """(name, sRGB) of an object's observed colour ``rgb`` (3,) 0-255.
-
-    white: (3,) observed board white, or None (then colours are taken as seen). The returned sRGB
-    is the white-balanced colour the name was chosen from.
-    """
+    """(name, white-balanced sRGB) of an observed colour rgb (3,) 0-255; white: (3,) the board's
+    observed white, or None (no balance)."""
     balanced = np.asarray(rgb, dtype=np.float64)
     if white is not None:
         balanced = balanced * np.asarray(WHITE_REFERENCE) / np.maximum(white, 1.0)

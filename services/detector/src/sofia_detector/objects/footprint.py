@@ -1,9 +1,5 @@
-"""One object from its points: footprint rectangle, top height, centre without one-sided bias.
-
-Vertical sides project onto the footprint, so the minimum-area rectangle of the projected points
-is it; a curved top (a ball) is centred on the apex of ``h = a + b x + c y + d (x^2 + y^2)``
-fitted to its top cap, symmetric about the centre whatever the viewing direction.
-"""
+"""One object from its points: the footprint (vertical sides project onto it: the least-area
+rectangle of the points), the top's height, and a curved top centred on its cap's apex."""
 
 from __future__ import annotations
 
@@ -27,15 +23,10 @@ NARROW_TOP = 0.3  # share of the points in the top band below which the object m
 
 @dataclass(frozen=True)
 class ObjectEstimate:
-    """An object in the board frame (metres, radians).
-
-    center_xy: (2,) footprint centre. height: top above the board. size: (length, width) with
-    length >= width. yaw: direction of the length axis. centroid: (3,) mean of the points.
-    curved: the top was fitted as a cap. whole_xy, whole_size: centre (2,) and (length, width) of
-    the rectangle around every point of the object, not only its top: what is left of an object
-    whose top is out of view (a tall object cut by the image border shows its side); for an
-    upright round side, the circle through it (:func:`round_side`).
-    """
+    """An object, board frame (metres, radians): footprint centre (2,), top height, (length, width)
+    and yaw of the length axis, centroid (3,) of the points, curved (a cap); whole_xy, whole_size:
+    the rectangle around all its points (or an upright round side's circle, :func:`round_side`),
+    what is left of an object whose top is out of view."""
 
     center_xy: np.ndarray
     height: float
@@ -48,7 +39,7 @@ class ObjectEstimate:
     whole_size: tuple[float, float] = (0.0, 0.0)
 
     def covers(self, xy: np.ndarray) -> bool:
-        """True when the board-frame point xy (2,) lies on the footprint rectangle."""
+        """Whether the board-frame point xy (2,) lies on the footprint."""
         c, s = np.cos(self.yaw), np.sin(self.yaw)
         d = xy - self.center_xy
         return bool(
@@ -62,8 +53,8 @@ def half_turn(yaw: float) -> float:
 
 
 def length_first(size: np.ndarray, yaw: float) -> tuple[tuple[float, float], float]:
-    """A rectangle's (length, width), length >= width, and the direction of its length axis
-    (:func:`half_turn`), from its ``size`` (2,) along its first axis (at ``yaw``) and its second."""
+    """((length, width), length axis direction) of a rectangle of ``size`` (2,) whose first axis
+    lies at ``yaw``."""
     if size[0] < size[1]:
         return (float(size[1]), float(size[0])), half_turn(yaw + np.pi / 2)
     return (float(size[0]), float(size[1])), half_turn(yaw)
@@ -75,9 +66,8 @@ def _spread(h: np.ndarray) -> float:
 
 
 def _solid(obj: ObjectPoints, subset: np.ndarray) -> np.ndarray:
-    """``subset`` ((n,) bool over the object's points) without its specks on the pixel grid: the
-    pieces smaller than 10 % of the largest (and than 10 pixels), which are mixed pixels that
-    slipped through at the same height, not part of a face."""
+    """``subset`` ((n,) bool) without its specks on the pixel grid (mixed pixels): the pieces
+    smaller than 10 % of the largest and than 10 pixels."""
     if obj.rows is None or obj.cols is None or np.count_nonzero(subset) < 3:
         return subset
     grid = np.zeros(obj.shape, dtype=bool)
@@ -96,18 +86,12 @@ def estimate_object(
     colour_tol: float = 0.0,
     min_width: float = DetectorParams.min_width,
 ) -> ObjectEstimate:
-    """Footprint, height and centre of one object.
-
-    obj: the object's points, board frame, metres (z = height above the board). noise: depth noise
-    standard deviation at the board, metres. curvature: the top is a cap when ``d < -curvature``
-    (1/m) with t < -4, or when its heights spread beyond the noise; the top fit uses the points in
-    the ellipse inscribed in 70 % of the footprint. A flat top's footprint: the points within 3 sigma
-    of its height (silhouette mixed pixels lie outside it). A cone is centred on its apex
-    (:func:`.caps.fit_cone`, :func:`.caps.fit_cone_apex`).
-    colour_tol > 0: missing-depth pixels of a flat top's colour are part of it (:mod:`.holes`).
-    min_width: a top narrower than this (metres) is a sliver of it; an upright round side then gives
-    ``whole_xy`` and ``whole_size`` (:func:`round_side`).
-    """
+    """Footprint, height and centre of one object (board frame, metres; noise: the depth noise). The
+    top fit takes the points in the ellipse inscribed in 70 % of the footprint; the top is a cap when
+    ``d < -curvature`` (1/m) with t < -4, or its heights spread beyond the noise. A cone is centred on
+    its apex. A flat top's footprint: its points within 3 sigma of its height, and (colour_tol > 0)
+    missing depth of its colour (:mod:`.holes`). A top narrower than min_width is a sliver: an
+    upright round side then gives ``whole_xy``, ``whole_size``."""
     b_all = obj.b
     n = b_all.shape[1]
     b = b_all[:, :: max(1, n // FIT_POINTS)]  # plenty for the fits

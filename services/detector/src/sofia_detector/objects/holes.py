@@ -1,10 +1,6 @@
-"""Missing depth on a flat top, placed on the top from its colour.
-
-Pixels without depth that have the top's colour and join the top on the pixel grid are placed on
-the top's plane by a homography fitted on the top's pixels with depth. A patch is taken only when
-the top or more missing depth borders it (a patch bordered by the board with depth is an oblique
-side face), and never where the board around the object has the top's colour.
-"""
+"""Missing depth on a flat top: pixels of the top's colour joining it on the pixel grid, placed on
+its plane by a homography fitted on its pixels with depth; only patches the top or more missing
+depth borders (else an oblique side face), never on a board of the top's colour."""
 
 from __future__ import annotations
 
@@ -26,11 +22,9 @@ BORDER_PX = 3  # what lies this many pixels around a patch borders it (past the 
 
 
 def pixel_to_plane(rows: np.ndarray, cols: np.ndarray, xy: np.ndarray) -> np.ndarray | None:
-    """(3, 3) homography H mapping pixels (col, row, 1) to points (x, y, 1) of one plane (metres),
-    fitted by OpenCV's ``findHomography`` (least squares) on (n,) pixels with known plane points
-    xy (n, 2) (n >= 4); None when it finds none. The fit runs in millimetres: in metres its result
-    put an edge-cut object's centre 14 mm from where the normalised direct linear transform did
-    on the realistic scenes (``bench_detector_release.py``); in millimetres they agree."""
+    """(3, 3) homography from pixels (col, row, 1) (n,) to plane points xy (n, 2), metres, n >= 4, by
+    OpenCV's least-squares ``findHomography`` (in millimetres: in metres it put an edge-cut object's
+    centre 14 mm off on the realistic scenes); None when it finds none."""
     if rows.size < 4:
         return None
     src = np.column_stack([cols, rows]).astype(np.float64)
@@ -41,16 +35,11 @@ def pixel_to_plane(rows: np.ndarray, cols: np.ndarray, xy: np.ndarray) -> np.nda
 def bordered_patches(
     grid: np.ndarray, same: np.ndarray, h: np.ndarray, raised: float, lo: float, hi: float, reach: int
 ) -> np.ndarray:
-    """(h, w) bool: the pixels of ``same`` (h, w) bool (missing depth of the top's colour) in
-    patches that join the top ``grid`` (h, w) bool through ``same`` and that the top or more
-    missing depth borders (within ``reach`` pixels). Of a patch's border pixels with depth more
-    than ``raised`` above the board, at most :data:`OFF_TOP` may be off the top (not in ``grid``
-    and outside its band of heights ``[lo, hi]``: a cone's flank, a side face below the top); at
-    most :data:`BOARD_SEEN` of its border may be the board with depth (within ``raised`` of it: a
-    side face of the top's colour, seen too obliquely). Pixels at the top's height are the top
-    even when not in ``grid`` (pieces of it that missing depth cut off). A pixel within reach of
-    two patches counts for the later-numbered one. h: (h, w) float32 heights above the board, NaN
-    where missing; ``raised``, ``lo``, ``hi`` metres."""
+    """(h, w) bool: pixels of ``same`` (missing depth of the top's colour) in patches joining the top
+    ``grid`` through ``same``, whose border (within ``reach`` pixels; heights h (h, w) float32, NaN
+    where missing, metres) above ``raised`` is at most :data:`OFF_TOP` off the top (not in ``grid``
+    nor within ``[lo, hi]``) and at most :data:`BOARD_SEEN` the board with depth. A pixel within
+    reach of two patches counts for the later-numbered one."""
     labels, n_all = label8(grid | same)
     joined = np.zeros(n_all + 1, dtype=bool)
     joined[labels[grid]] = True
@@ -75,31 +64,9 @@ def bordered_patches(
     return good[parts]  # type: ignore[no-any-return]
 
 
-def _of_top_colour(
-    grid: np.ndarray, h: np.ndarray, rgb: np.ndarray, own: np.ndarray, tol: float
-) -> tuple[bool, np.ndarray, int, int, int]:
-    """The missing depth of a top's colour around the top ``grid`` (h, w) bool: whether any pixel
-    within one of it is such; the pixels without depth (``h`` (h, w) float32 NaN) of its colour
-    (``own`` (4,) :func:`.depth_clean.chroma` within ``tol`` of ``rgb`` (h, w, 3) uint8), and how
-    many; of every second row and column, the board pixels (within :data:`RAISED` of it) within
-    four of the top, and how many of them have its colour."""
-    missing = np.isnan(h)
-    same = np.zeros(grid.shape, dtype=bool)
-    same[missing] = of_colour(rgb[missing], own, tol)
-    beside = bool((same & grow(grid, 3)).any())
-    h2 = h[::2, ::2]
-    with np.errstate(invalid="ignore"):
-        board = grow(grid[::2, ::2], 9) & (np.abs(h2) < RAISED)
-    n_board_same = int(np.count_nonzero(of_colour(rgb[::2, ::2][board], own, tol)))
-    return beside, same, int(np.count_nonzero(same)), int(np.count_nonzero(board)), n_board_same
-
-
 def unseen_top(obj: ObjectPoints, face: np.ndarray, tol: float) -> np.ndarray:
-    """(k, 2) board-frame xy (metres) of the missing-depth pixels of the top's colour that join the
-    top ``face`` ((n,) bool over the object's points) on the pixel grid and are not bordered by the
-    board with depth nor by depth below the top's heights; (0, 2) when there are none, no colours,
-    or the board around has the top's colour.
-    tol: colour distance (:func:`.depth_clean.colour_distance` of :func:`.depth_clean.chroma`)."""
+    """(k, 2) board-frame xy (metres) of the missing depth of the top's colour (within ``tol``) that
+    joins the top ``face`` ((n,) bool) (:func:`bordered_patches`); (0, 2) when none."""
     none = np.zeros((0, 2))
     if obj.rgb is None or obj.rows is None or obj.cols is None or obj.window is None:
         return none
@@ -110,12 +77,15 @@ def unseen_top(obj: ObjectPoints, face: np.ndarray, tol: float) -> np.ndarray:
     grid[fr, fc] = True
     h = obj.window[2]
     own = median_chroma(obj.rgb, fr[::4], fc[::4])
-    beside, same, n_same, n_board, n_board_same = _of_top_colour(grid, h, obj.rgb, own, tol)
-    if not beside:
-        return none  # no missing pixel next to the top of its colour (the board in its stereo shadow)
-    if n_same < MIN_SHARE * fr.size:
-        return none
-    if n_board and n_board_same / n_board > BOARD_LIKE:
+    missing = np.isnan(h)
+    same = np.zeros(grid.shape, dtype=bool)
+    same[missing] = of_colour(obj.rgb[missing], own, tol)
+    if not (same & grow(grid, 3)).any() or np.count_nonzero(same) < MIN_SHARE * fr.size:
+        return none  # too little missing depth of its colour, none next to the top (its stereo shadow)
+    with np.errstate(invalid="ignore"):  # the board within four pixels, every second row and column
+        board = grow(grid[::2, ::2], 9) & (np.abs(h[::2, ::2]) < RAISED)
+    n_board = np.count_nonzero(board)
+    if n_board and np.count_nonzero(of_colour(obj.rgb[::2, ::2][board], own, tol)) / n_board > BOARD_LIKE:
         return none  # the object stands on its own colour
     face_h = obj.b[2, face]
     lo, mid = float(face_h.min()), float(median(face_h))

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import replace
+from functools import cache
 
 import numpy as np
 from sofia_schemas import Board
@@ -34,30 +35,22 @@ def measure_objects(
     board: Board,
     params: DetectorParams,
 ) -> list[DetectedObject]:
-    """The objects of one cloud, on red fields first, then by their number of points.
-
-    found: the segmented objects (:func:`..segment.find_objects`); cloud: (H, W, 3) organized or
-    (N, 3) points, base frame, metres; colours: uint8 of cloud's shape, or None; fit: the
-    measured board. Objects below the height floor, off the field grid, beside the board or
-    made of mixed pixels are dropped; objects of which depth saw only slivers are placed from
-    their colour silhouettes.
-    """
+    """The objects of one cloud (H, W, 3) or (N, 3), base frame, metres (colours: uint8 of its shape),
+    on red fields first, then by their number of points; those below the height floor, off the
+    field grid, beside the board or of mixed pixels dropped, slivers placed by their silhouettes."""
     organized = cloud.ndim == 3
-    white = None
-    need_white = colours is not None  # measured once, for the first object named
 
-    def board_white_once() -> np.ndarray | None:
-        nonlocal white, need_white
-        if need_white and colours is not None:
-            s = params.stride
-            m, c = (
-                (fit.m_coarse, colours[::s, ::s])
-                if organized
-                else (fit.m_coarse[:, ::7, None], colours[::7, None])
-            )
-            white = board_white(m, c, fit.T_board_plane, board, params.outline_band)
-            need_white = False
-        return white
+    @cache
+    def board_white_once() -> np.ndarray | None:  # measured for the first object named
+        if colours is None:
+            return None
+        s = params.stride
+        m, c = (
+            (fit.m_coarse, colours[::s, ::s])
+            if organized
+            else (fit.m_coarse[:, ::7, None], colours[::7, None])
+        )
+        return board_white(m, c, fit.T_board_plane, board, params.outline_band)
 
     depth = cloud[..., 2] if organized else None
     objects, placed, slivers = [], [], []

@@ -1,10 +1,6 @@
-"""Round flat tops (cylinders, pucks): the centre from a circle through the seen part of the rim.
-
-Rim pixels that border the board or the object's lower side are true edges of the top; a circle
-through them gives the centre from an arc of 70 degrees or more, even where the rest of the top is
-out of view. A rectangle's rim lies closer to its rectangle than to any circle, which tells boxes
-from cylinders. A top out of view: the upright round side gives the axis (:func:`round_side`).
-"""
+"""Round flat tops (cylinders, pucks) centred by a circle through the seen rim pixels that border
+the board or the object's side; a box's rim lies closer to its rectangle. A top out of view: the
+upright round side gives the axis (:func:`round_side`)."""
 
 from __future__ import annotations
 
@@ -29,20 +25,15 @@ SIDE_KEEP = 0.8  # least share of the side's points on its circle
 
 
 def rim_xy(obj: ObjectPoints, face: np.ndarray, top: float, drop: float) -> tuple[np.ndarray, float]:
-    """(k, 2) board-frame xy of the pixels of a flat top's outer edge whose 8 neighbours outside it
-    all have depth and lie more than ``drop`` below ``top`` (metres): its edges against the board
-    or its own sides, not those against missing depth, the image border or something higher.
-
-    obj: an object of an organized cloud; face: (n,) bool over its points, the top. Also returns
-    the distance between neighbouring pixels on the top (metres).
-    """
+    """((k, 2) board-frame xy, pixel spacing) of the rim pixels of the top ``face`` ((n,) bool) whose
+    neighbours off it all lie more than ``drop`` below ``top`` (metres): edges against the board or
+    its sides, not against missing depth, the image border or something higher."""
     if obj.rows is None or obj.cols is None or obj.window is None:
         return np.zeros((0, 2)), 0.0
     fr, fc = obj.rows[face], obj.cols[face]
     if fr.size == 0:
         return np.zeros((0, 2)), 0.0
-    # the top's bounding box and one pixel around it, framed by missing depth (the window's border
-    # is not seen)
+    # the top's bounding box and one pixel around it
     r0, c0 = max(int(fr.min()) - 1, 0), max(int(fc.min()) - 1, 0)
     r1, c1 = min(int(fr.max()) + 2, obj.shape[0]), min(int(fc.max()) + 2, obj.shape[1])
     grid = np.zeros((r1 - r0, c1 - c0), dtype=bool)
@@ -61,9 +52,8 @@ def rim_xy(obj: ObjectPoints, face: np.ndarray, top: float, drop: float) -> tupl
 
 
 def _rim_pixels(grid: np.ndarray, h: np.ndarray, below: float) -> tuple[np.ndarray, np.ndarray]:
-    """(rows, cols) (k,) of the pixels of a top ``grid`` (h, w) bool with a neighbour off it whose
-    whole 3 x 3 neighbourhood is the top or lower than ``below`` (heights ``h`` (h, w) float32,
-    NaN where missing; outside the grid's box is unseen: not lower), in row-major order."""
+    """(rows, cols) (k,) of the pixels of ``grid`` (h, w) bool with a neighbour off it whose 3 x 3
+    neighbourhood is the top or lower than ``below`` (heights h (h, w) float32, NaN: unseen)."""
     with np.errstate(invalid="ignore"):
         higher = ~grid & ~(h < below)  # off the top and not lower (NaN: unseen)
     rim = grid & grow(~grid, 3) & ~grow(higher, 3)
@@ -72,9 +62,8 @@ def _rim_pixels(grid: np.ndarray, h: np.ndarray, below: float) -> tuple[np.ndarr
 
 
 def fit_circle(xy: np.ndarray) -> tuple[np.ndarray, float, float]:
-    """Least-squares circle ``x^2 + y^2 + D x + E y + F = 0`` through xy (k, 2), k >= 3, centred on
-    the points' mean: (centre (2,), radius, rms radial residual), all in the units of xy; radius
-    and rms are inf for collinear points."""
+    """(centre (2,), radius, rms radial residual) of the algebraic least-squares circle through xy
+    (k, 2), k >= 3; radius and rms inf for collinear points."""
     xy = np.asarray(xy, dtype=np.float64)
     m = xy.mean(axis=0)
     uv = (xy - m).T  # (2, k)
@@ -90,7 +79,7 @@ def fit_circle(xy: np.ndarray) -> tuple[np.ndarray, float, float]:
 
 
 def widest_gap(xy: np.ndarray, center: np.ndarray) -> float:
-    """Widest angle (radians) around ``center`` (2,) without any of the points xy (k, 2), k >= 1."""
+    """Widest angle (radians) around ``center`` (2,) without any of xy (k, 2), k >= 1."""
     ang = np.sort(np.arctan2(xy[:, 1] - center[1], xy[:, 0] - center[0]))
     return float(np.diff(np.append(ang, ang[0] + 2 * np.pi)).max())
 
@@ -105,14 +94,9 @@ def _rect_rms(xy: np.ndarray, rect: Rect) -> float:
 def round_top(
     obj: ObjectPoints, face: np.ndarray, top: float, noise: float, rect: Rect
 ) -> tuple[np.ndarray, float] | None:
-    """(centre (2,), radius) of a round flat top from its rim (see :func:`rim_xy`), or None when
-    the top is not round or too little of its rim is seen.
-
-    face: (n,) bool, the top's points; top: its height; noise: depth noise at the board (metres);
-    rect: the rectangle around the seen top. The rim must lie on a circle (after dropping
-    outliers: mixed pixels) within about a pixel, closer than on ``rect``, leave no gap wider
-    than :data:`MAX_GAP` around it, and the circle must hold the seen top.
-    """
+    """(centre (2,), radius) of a round flat top ``face`` at height ``top`` from its rim
+    (:func:`rim_xy`), or None: the rim (without outliers) on a circle within about a pixel, closer
+    than on ``rect`` (the seen top, which the circle holds), no gap wider than :data:`MAX_GAP`."""
     xy, spacing = rim_xy(obj, face, top, max(3 * noise, 0.004))
     if len(xy) < MIN_RIM:
         return None
@@ -136,15 +120,9 @@ def round_top(
 def round_footprint(
     obj: ObjectPoints, face: np.ndarray, top: float, noise: float, rect: Rect, whole: Rect
 ) -> tuple[np.ndarray, float] | None:
-    """(centre (2,), radius) of a round object whose flat top's rectangle ``rect`` is cut short by
-    what hides part of it, or None (not round, or ``rect`` is the whole top: a square as wide as
-    the circle; its centre is then better than the circle's, whose rim pixels lie half a pixel
-    inside it on the seen sides only).
-
-    face: (n,) bool, the top's points; top: its height; noise: depth noise at the board (metres).
-    whole: the rectangle around all the object's points. A top much smaller than ``whole`` is a
-    cap on a wider body (a bottle's neck above its shoulder): the body's outline gives the centre.
-    """
+    """(centre (2,), radius) of a round object whose top's rectangle ``rect`` is cut short, or None
+    (not round, or ``rect`` is the whole top: then its centre is better). A top much smaller than
+    ``whole`` (all the points) is a cap on a wider body: the body's outline gives the centre."""
     if float(np.prod(rect.size)) < CAP_SHARE * float(np.prod(whole.size)):
         return round_top(obj, np.ones_like(face), top, noise, whole)
     if abs(float(rect.size[0] - rect.size[1])) < WHOLE_TOP:
@@ -156,17 +134,10 @@ def round_footprint(
 
 
 def round_side(b: np.ndarray, noise: float, h_hi: float) -> tuple[np.ndarray, float] | None:
-    """The axis of an upright round side (a cylinder's, a bottle's body): ``(centre_xy (2,),
-    radius)`` of the circle through the side's points, or None when the side is not round.
-
-    A vertical side projects onto the footprint's outline, so a circle through the xy of the
-    points between :data:`SIDE_BAND` of the highest one ``h_hi`` (clear of the base's mixed
-    pixels and of a bottle's shoulder) centres the object even when its top is out of view. b:
-    (3, n) board-frame points (z = height), metres. The circle is refitted on the points within
-    two depth noise deviations plus 2 mm of it; at least :data:`SIDE_KEEP` of them, within
-    :data:`SIDE_RMS` plus the noise rms, around an arc of at least :data:`SIDE_ARC` (a flat
-    face fits a circle only as an arc too short to place it).
-    """
+    """(centre_xy (2,), radius) of the circle through an upright round side, or None: the xy of b
+    (3, n) between :data:`SIDE_BAND` of the highest ``h_hi``, refitted on those within two noise
+    deviations plus 2 mm; :data:`SIDE_KEEP` of them, rms :data:`SIDE_RMS` plus the noise, around
+    an arc of :data:`SIDE_ARC` or more (a flat face fits only a short arc)."""
     h = b[2]
     sel = (h > SIDE_BAND[0] * h_hi) & (h < SIDE_BAND[1] * h_hi)
     if np.count_nonzero(sel) < 30:

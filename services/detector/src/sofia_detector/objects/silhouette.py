@@ -1,10 +1,6 @@
-"""An object with almost no depth (depth on a sliver only), placed from its colour silhouette.
-
-For vertical sides and a top at height h, the silhouette's rays cut the plane z = h and the board
-z = 0 in two regions that both cover the footprint and only it: their intersection is the
-footprint. The rays come from a pinhole camera fitted to the organized cloud around the object,
-the height from the slivers.
-"""
+"""An object with depth on a sliver only, placed from its colour silhouette: its rays (a pinhole
+camera fitted to the cloud around it) cut the plane of its top (the slivers' height) and the board
+in two regions whose intersection is the footprint of vertical sides."""
 
 from __future__ import annotations
 
@@ -19,20 +15,19 @@ from ..geometry.points import points_in_frame
 from ..geometry.rect import Rect, min_area_rect
 from ..geometry.samples import median
 from ..segment.points import ObjectPoints
+from .holes import BOARD_LIKE, RAISED
 
-RAISED = 0.005  # metres: a pixel with depth this close to the board is the board
 MIN_MISSING = 0.5  # share of the silhouette without depth below which the slivers are the object
 CAMERA_POINTS = 600  # pixels with depth used to fit the camera
 MAX_REPROJECTION = 1.5  # pixels: median reprojection error of a usable camera fit
 CELL = 0.002  # metres: grid of the ray intersections
 ON_FOOTPRINT = 0.004  # metres: the slivers lie on the footprint within this distance
-BOARD_LIKE = 0.05  # share of the board around of the object's colour above which nothing is done
 
 
 @dataclass(frozen=True)
 class Silhouette:
-    """An object's silhouette: its pixels in the image (rows, cols) (n,), the share of them without
-    depth, and its board-frame footprint rectangle (metres; None when it cannot be placed)."""
+    """Pixels (rows, cols) (n,) in the image, their share without depth, the board-frame footprint
+    (None when it cannot be placed)."""
 
     rows: np.ndarray
     cols: np.ndarray
@@ -41,8 +36,7 @@ class Silhouette:
 
 
 def _normalising(p: np.ndarray) -> np.ndarray:
-    """(d + 1, d + 1) similarity moving points p (n, d) to their centroid at a mean distance of
-    sqrt(d) (Hartley's conditioning)."""
+    """(d + 1, d + 1) Hartley conditioning of p (n, d): centroid 0, mean distance sqrt(d)."""
     d, m = p.shape[1], p.mean(axis=0)
     s = np.sqrt(d) / max(float(np.mean(np.linalg.norm(p - m, axis=1))), 1e-12)
     T = np.diag([s] * d + [1.0])
@@ -51,8 +45,8 @@ def _normalising(p: np.ndarray) -> np.ndarray:
 
 
 def dlt(xyz: np.ndarray, pix: np.ndarray) -> np.ndarray | None:
-    """(3, 4) camera projection P with ``P [xyz 1]^T ~ [pix 1]^T`` by the normalised direct linear
-    transform (OpenCV fits homographies, not projections); None when the points do not fix it."""
+    """(3, 4) P with ``P [xyz 1]^T ~ [pix 1]^T`` by the normalised direct linear transform (OpenCV
+    fits homographies, not projections); None when the points do not fix it."""
     Ts, Td = _normalising(xyz), _normalising(pix)
     X = np.hstack([xyz, np.ones((len(xyz), 1))]) @ Ts.T
     u, v = (np.hstack([pix, np.ones((len(pix), 1))]) @ Td.T)[:, :2].T
@@ -63,9 +57,8 @@ def dlt(xyz: np.ndarray, pix: np.ndarray) -> np.ndarray | None:
 
 
 def fit_camera(pix: np.ndarray, xyz: np.ndarray) -> np.ndarray | None:
-    """(3, 4) projection P with ``P [x y z 1]^T ~ [col row 1]^T`` by :func:`dlt`. pix: (n, 2) (col, row); xyz: (n, 3) board frame, metres, not
-    coplanar. None when the points do not fix it or it reprojects them worse than
-    :data:`MAX_REPROJECTION`."""
+    """:func:`dlt` of pix (n, 2) (col, row) and xyz (n, 3) (board frame, metres, not coplanar); None
+    when it reprojects them worse than :data:`MAX_REPROJECTION`."""
     if pix.shape[0] < 12 or float(np.std(xyz[:, 2])) < 0.005:
         return None
     P = dlt(xyz, pix)
@@ -84,8 +77,7 @@ def on_plane(P: np.ndarray, cols: np.ndarray, rows: np.ndarray, z: float) -> np.
 
 
 def _cells(xy: np.ndarray, lo: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
-    """(shape) bool: the cells of :data:`CELL` from ``lo`` holding a point of xy (n, 2), closed and
-    with their holes filled (a pixel's ray lands about a pixel spacing from its neighbours')."""
+    """(shape) bool: cells of :data:`CELL` from ``lo`` holding a point of xy (n, 2), closed, filled."""
     idx = np.floor((xy - lo) / CELL).astype(np.intp)
     grid = np.zeros(shape, dtype=bool)
     grid[idx[:, 0], idx[:, 1]] = True
@@ -93,9 +85,8 @@ def _cells(xy: np.ndarray, lo: np.ndarray, shape: tuple[int, int]) -> np.ndarray
 
 
 def footprint(P: np.ndarray, rows: np.ndarray, cols: np.ndarray, height: float) -> np.ndarray:
-    """(k, 2) board-frame centres of the cells of the footprint of an upright object of ``height``
-    (metres) whose silhouette is the pixels (rows, cols) (n,): where its rays at the top's height
-    and at the board agree."""
+    """(k, 2) board-frame cell centres where the rays of pixels (rows, cols) (n,) at ``height`` and at
+    the board agree: the footprint of an upright object."""
     top = on_plane(P, cols, rows, height)
     base = on_plane(P, cols, rows, 0.0)
     lo = np.minimum(top.min(axis=0), base.min(axis=0)) - 3 * CELL
@@ -109,18 +100,13 @@ def footprint(P: np.ndarray, rows: np.ndarray, cols: np.ndarray, height: float) 
 def silhouette(
     obj: ObjectPoints, cloud: np.ndarray, rgb: np.ndarray, T_base_board: np.ndarray, height: float, tol: float
 ) -> Silhouette | None:
-    """The object whose depth is only ``obj`` (a sliver), placed from its colour silhouette.
+    """The object whose depth is only the sliver ``obj``: the region of its colour (within ``tol``)
+    joined to it, without depth or raised, within one window size around it. cloud: (H, W, 3),
+    base frame, metres; rgb: (H, W, 3) uint8; height: its top above the board, metres.
 
-    cloud: (H, W, 3) organized points, base frame, metres (NaN where missing); rgb: (H, W, 3) uint8
-    aligned colours; T_base_board: (4, 4) measured board frame; height: the object's top above the
-    board (metres); tol: colour distance of the object's colour. The silhouette is the region of
-    the sliver's colour, without depth or raised above the board, joined to the sliver, searched
-    within one window size around the sliver's window.
-
-    Returns None when the board around has the object's colour. Returns the silhouette without
-    ``rect`` when it cannot be placed: it reaches the edge of the searched area (the image border,
-    something of the same colour running off), depth covers most of it (the sliver is what there
-    is), the camera or the footprint cannot be fixed, or the slivers are not on the footprint.
+    None when the board around has its colour; no ``rect`` when the region reaches the searched
+    area's edge, depth covers most of it, the camera or footprint is not fixed, or the slivers are
+    off the footprint.
     """
     if obj.rows is None or obj.cols is None or obj.rgb is None:
         return None

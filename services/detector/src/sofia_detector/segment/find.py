@@ -1,5 +1,4 @@
-"""``find_objects``: the points of every object of one cloud, organized or not, and the thresholds
-measured on its board (:class:`.points.Levels`)."""
+"""``find_objects``: the points of every object of one cloud and its thresholds (:class:`.points.Levels`)."""
 
 from __future__ import annotations
 
@@ -31,11 +30,8 @@ def levels(fit: BoardFit, params: DetectorParams, organized: bool) -> Levels:
 def find_objects(
     cloud: np.ndarray, rgb: np.ndarray | None, fit: BoardFit, board: Board, params: DetectorParams
 ) -> list[ObjectPoints]:
-    """The points of each object on the board.
-
-    cloud: (H, W, 3) organized or (N, 3) float points, base frame, metres, NaN allowed; rgb: uint8
-    colours of cloud's shape, or None. fit: the measured board (:func:`..board.fit_board`).
-    """
+    """The points of each object on the board: cloud (H, W, 3) or (N, 3) float, base frame, metres,
+    NaN allowed; rgb uint8 of cloud's shape, or None; fit: the measured board."""
     organized = cloud.ndim == 3
     lv = levels(fit, params, organized)
     half = np.array(board.extent) / 2 + params.field_margin

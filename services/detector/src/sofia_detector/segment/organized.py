@@ -1,8 +1,5 @@
-"""The points of each object on the board.
-
-Organized clouds: object seeds on the coarse pixel grid (heights above the measured plane), then
-full resolution only inside each seed's pixel window. Unorganized clouds: :mod:`.unorganized`.
-"""
+"""Objects of an organized cloud: seeds on the coarse pixel grid (heights above the measured
+plane), then full resolution only inside each seed's pixel window."""
 
 from __future__ import annotations
 
@@ -19,16 +16,7 @@ from ..params import DetectorParams
 from .points import Levels, ObjectPoints, inside
 
 MIN_PART = 10  # pixels of the smallest part standing on an object that is joined to it
-
-
 PART_MARGIN = 0.005  # metres
-
-
-def _covers(r0: int, c0: int, mask: np.ndarray, rows: np.ndarray, cols: np.ndarray) -> bool:
-    """True when any pixel (rows, cols) lies in ``mask`` placed at (r0, c0)."""
-    r, c = rows - r0, cols - c0
-    ok = (r >= 0) & (r < mask.shape[0]) & (c >= 0) & (c < mask.shape[1])
-    return bool(mask[r[ok], c[ok]].any())
 
 
 def organized_objects(
@@ -41,14 +29,9 @@ def organized_objects(
     levels: Levels,
     rgb: np.ndarray | None = None,
 ) -> Iterator[ObjectPoints]:
-    """Objects of an organized cloud.
-
-    points_base: (H, W, 3) float, base frame, metres. m_coarse: (3, h, w) float32, plane frame, the
-    coordinates of ``points_base[::stride, ::stride]``. T_base_board: (4, 4) measured board frame;
-    T_board_plane: (4, 4) plane frame in the board frame. half: (2,) half size of the region where
-    object centres may lie, board frame. rgb: (H, W, 3) uint8 aligned colours, or None. Flying
-    pixels are dropped; pieces of one object split by depth holes are joined through missing
-    pixels of its colour.
+    """Objects of points_base (H, W, 3) float, base frame, metres. m_coarse: (3, h, w) float32,
+    ``points_base[::stride, ::stride]`` in the plane frame. T_base_board, T_board_plane: (4, 4).
+    half: (2,) half size of the region of object centres, board frame. rgb: (H, W, 3) uint8 or None.
     """
     s = params.stride
     H, W = points_base.shape[:2]
@@ -57,7 +40,7 @@ def organized_objects(
         m_coarse, levels.seed, params.max_height, levels.delta_coarse, rgb_coarse, levels.colour_tol
     )
     seeds, labels, n = raised.mask, raised.labels, raised.n
-    claimed: list[tuple[int, int, np.ndarray]] = []  # (row, col, mask) of the objects found so far
+    claimed = np.zeros((H, W), dtype=bool)  # the pixels of the objects found so far
     pad = 2
     for i, sl in enumerate(ndimage.find_objects(labels, max_label=n), start=1):
         if sl is None:
@@ -70,7 +53,7 @@ def organized_objects(
         if not inside(T_board_plane[:2, :2] @ xy_plane + T_board_plane[:2, 3], half):
             continue  # clutter beside the board
         rows, cols = (sr + sl[0].start) * s, (sc + sl[1].start) * s  # full-resolution seed pixels
-        if any(_covers(r, c, m, rows, cols) for r, c, m in claimed):
+        if claimed[rows, cols].any():
             continue  # a second seed of an object already found (holes in the cloud split it)
         r0, r1 = max((sl[0].start - pad) * s, 0), min((sl[0].stop + pad) * s, H)
         c0, c1 = max((sl[1].start - pad) * s, 0), min((sl[1].stop + pad) * s, W)
@@ -88,7 +71,7 @@ def organized_objects(
         obj = np.isin(wl, pieces) if pieces.size > 1 else wl == pieces[0]
         if n_pieces > pieces.size:
             obj = _with_parts_on_top(wl, n_pieces, b, obj, pieces)
-        claimed.append((r0, c0, obj))
+        claimed[r0:r1, c0:c1] |= obj
         points, rows_obj, cols_obj = masked_points(b, obj)
         yield ObjectPoints(
             points, rows_obj, cols_obj, obj.shape, (r0, c0), (H, W), b,
@@ -99,11 +82,10 @@ def organized_objects(
 def _with_parts_on_top(
     labels: np.ndarray, n: int, b: np.ndarray, obj: np.ndarray, pieces: np.ndarray
 ) -> np.ndarray:
-    """``obj`` (h, w) bool (the ``pieces`` of ``labels``) with the other pieces of ``labels``
-    (h, w) (1..n) that stand on it: at least :data:`MIN_PART` pixels, higher than its median
-    point and inside its footprint's bounding box (within :data:`PART_MARGIN`). A step in depth separates such a part (a bottle's
-    neck above its shoulder) on the pixel grid; nothing floats above an object. b: (3, h, w)
-    board-frame coordinates of the window, metres."""
+    """``obj`` (h, w) bool (the ``pieces`` of ``labels`` (h, w), 1..n) with the other pieces that
+    stand on it (a bottle's neck above its shoulder, cut off by a step in depth): at least
+    :data:`MIN_PART` pixels, above its median point, within its bounding box (+ :data:`PART_MARGIN`).
+    b: (3, h, w) board-frame coordinates of the window, metres."""
     sizes = np.bincount(labels.ravel(), minlength=n + 1)
     sizes[pieces] = 0
     sizes[0] = 0

@@ -12,10 +12,9 @@ from ..geometry.rect import hull
 
 @dataclass(frozen=True)
 class ObjectPoints:
-    """One object: b (3, n) float32 board-frame coordinates (z = height), metres; unorganized
-    clouds with colours give each point's colour. Organized clouds also give each point's pixel (rows, cols) in a window of ``shape``, so that the outline of a
-    subset is found on the pixel grid, with the window around them (coordinates and colours)
-    that tells how much of the object is in view."""
+    """One object: b (3, n) float32 board-frame coordinates (z = height), metres. Organized clouds
+    also give each point's pixel (rows, cols) in a window of ``shape`` and the window around them;
+    unorganized clouds with colours, each point's colour."""
 
     b: np.ndarray
     rows: np.ndarray | None = None
@@ -28,8 +27,7 @@ class ObjectPoints:
     point_rgb: np.ndarray | None = None  # (n, 3) uint8 colours of the points (unorganized clouds)
 
     def boundary_xy(self, subset: np.ndarray | None = None) -> np.ndarray:
-        """(k, 2) points of ``subset`` ((n,) bool, default all) including every vertex of the
-        convex hull of their footprint."""
+        """(k, 2) xy of ``subset`` ((n,) bool, default all) including their hull's vertices."""
         if self.rows is None or self.cols is None:
             return hull((self.b if subset is None else self.b[:, subset])[:2].T)
         return self.b[:2, boundary_points(self.rows, self.cols, self.shape, subset)].T
@@ -42,12 +40,9 @@ def inside(xy: np.ndarray, half: np.ndarray) -> bool:
 
 @dataclass(frozen=True)
 class Levels:
-    """Thresholds measured on the board of one cloud (metres).
-
-    seed: height of a coarse object pixel. point: height of a full-resolution object point.
-    delta, delta_coarse: neighbour distance of :func:`.depth_clean.consistent_at` at full resolution
-    and on the coarse grid. colour_tol: colour distance of holes bridged into an object.
-    """
+    """Thresholds of one cloud (metres): heights of a coarse object pixel (seed) and of a full
+    resolution point (point); :func:`..depth.clean.consistent_at` distances at full resolution and
+    on the coarse grid; colour_tol, the colour distance of holes bridged into an object."""
 
     seed: float
     point: float

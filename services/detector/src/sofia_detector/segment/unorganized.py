@@ -1,13 +1,8 @@
-"""The objects of an unorganized cloud (N x 3, no pixel grid): connected cells of an occupancy grid
-in the board plane.
+"""Objects of an unorganized cloud (N x 3): connected cells of an occupancy grid in the board plane.
 
-Without the pixel grid there are no pixel neighbours to tell flying pixels by, and no missing
-pixels to bridge. Flying pixels float one by one along their rays between the two surfaces of a
-depth edge: in 3D they are sparse where a real surface, sampled at the camera's pixel spacing, is
-dense, so points with fewer than :data:`MIN_VOXEL_POINTS` in their voxel are dropped. A dark
-object that missing depth cut into pieces leaves cells without any point (neither the object nor
-the board) between them: pieces of one colour that such empty cells join are one object; where
-the board was seen between them they are two.
+Flying pixels are sparse in 3D where a real surface is dense: points with fewer than
+:data:`MIN_VOXEL_POINTS` in their voxel go. Pieces of one colour joined by cells without any point
+(missing depth on a dark object) are one object; where the board was seen between them, two.
 """
 
 from __future__ import annotations
@@ -31,8 +26,7 @@ BRIDGE_CELLS = 3  # empty cells a piece grows through to meet another piece of i
 
 
 def dense(b: np.ndarray, voxel: float = VOXEL, k: int = MIN_VOXEL_POINTS) -> np.ndarray:
-    """(n,) bool: the points of b (3, n) (metres, finite) with at least ``k`` points (themselves
-    included) in their cube of side ``voxel``."""
+    """(n,) bool: points of b (3, n) (metres, finite) with ``k`` points or more in their voxel."""
     if b.shape[1] == 0:
         return np.zeros(0, dtype=bool)
     key = np.floor(b / voxel).astype(np.int64)
@@ -44,8 +38,8 @@ def dense(b: np.ndarray, voxel: float = VOXEL, k: int = MIN_VOXEL_POINTS) -> np.
 
 
 def _candidates(labels: np.ndarray, n: int, colour: np.ndarray, tol: float) -> list[tuple[int, int]]:
-    """Pairs (i, j) of labels (1..n) of ``labels`` (h, w) of one colour (``colour`` (n + 1, 4)
-    :func:`.depth_clean.chroma`) whose bounding boxes, grown by :data:`BRIDGE_CELLS` each, meet."""
+    """Pairs (i, j) of labels 1..n of ``labels`` (h, w) of one colour (``colour`` (n + 1, 4) chroma)
+    whose bounding boxes, grown by :data:`BRIDGE_CELLS` each, meet."""
     boxes = ndimage.find_objects(labels, max_label=n)
     lo = np.array([[s[0].start, s[1].start] if s else [-9999, -9999] for s in boxes]) - BRIDGE_CELLS
     hi = np.array([[s[0].stop, s[1].stop] if s else [-9999, -9999] for s in boxes]) + BRIDGE_CELLS
@@ -56,8 +50,8 @@ def _candidates(labels: np.ndarray, n: int, colour: np.ndarray, tol: float) -> l
 
 
 def join_pieces(labels: np.ndarray, n: int, empty: np.ndarray, pairs: list[tuple[int, int]]) -> np.ndarray:
-    """``labels`` (h, w) int (1..n) with the ``pairs`` of labels merged that meet when each grows up
-    to :data:`BRIDGE_CELLS` cells into ``empty`` (h, w) bool cells."""
+    """``labels`` (h, w) int (1..n) with those ``pairs`` merged that meet when each grows up to
+    :data:`BRIDGE_CELLS` cells into ``empty`` (h, w) bool cells."""
     grown = labels.copy()
     for _ in range(BRIDGE_CELLS):
         around = max_filter(grown, 3)  # the largest label among the 8 neighbours (or the cell)
@@ -85,16 +79,10 @@ def unorganized_objects(
     point: float,
     rgb: np.ndarray | None = None,
 ) -> Iterator[ObjectPoints]:
-    """Objects of an unorganized cloud.
-
-    m_plane: (3, n) float32 coordinates of every point in the plane frame, metres.
-    T_plane_board: (4, 4) measured board frame in the plane frame. half: (2,) half size of the
-    region where object centres may lie, board frame. Points above the board that lie on a dense
-    surface (:func:`dense`) are binned into ``params.cell`` cells; cells holding at least two points
-    are connected. point: height above the board of an object point. rgb: (n, 3) uint8 colours of
-    the points, or None; with them pieces of one colour joined by empty cells are one object
-    (:func:`join_pieces`), and each object's points carry their colours.
-    """
+    """Objects of m_plane (3, n) float32, plane frame, metres: points more than ``point`` above
+    the board on a dense surface (:func:`dense`), in cells of ``params.cell`` holding two or more,
+    connected. T_plane_board: (4, 4). half: (2,) half size of the region of object centres, board
+    frame. rgb: (n, 3) uint8 or None (then no :func:`join_pieces`)."""
     b = change_frame(m_plane, T_plane_board)
     grid_half = half + 0.06
     with np.errstate(invalid="ignore"):

@@ -83,6 +83,9 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     s.add_argument("--setup", choices=("eye-in-hand", "eye-to-hand"), default="eye-in-hand",
                    help="solve T_flange_cam (eye-in-hand) or T_base_cam (eye-to-hand: the target on the "
                    "flange); a solve query's options may change it (default eye-in-hand)")  # fmt: skip
+    s.add_argument("--scale-prior", metavar="RESULT.yaml",
+                   help="an earlier calibration of the same camera: its depth scale is the prior of each "
+                   "solve's (default none)")  # fmt: skip
     s.add_argument("--tolerance-ms", type=float, default=50.0, help="pose/blob stamp gap, ms")
     s.add_argument("--min-samples", type=int, default=3, help="samples before the first solve")
     s.add_argument("--max-samples", type=int, default=MAX_SAMPLES,

@@ -100,7 +100,7 @@ class Calibrator:
         cal = calibrate(
             p, T, guess=guess, sigma=opts.noise, confidence=conf, loss=opts.loss,  # type: ignore[arg-type]
             exclude_outliers=opts.exclude_outliers, correction=opts.correction,
-            parent_frame=parent, child_frame=self.child_frame,
+            depth_scale_prior=opts.depth_scale_prior, parent_frame=parent, child_frame=self.child_frame,
         )  # fmt: skip
         self.result = to_message(cal, now_ns(), ids)
         self.result = self.result.model_copy(

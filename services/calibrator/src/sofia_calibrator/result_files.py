@@ -52,3 +52,9 @@ def read_scale_prior(path: str | Path) -> ScalePrior:
             f"{path}: its camera correction is {corr.model}, with no fitted depth scale to use as a prior"
         )
     return ScalePrior(corr.depth_scale, corr.depth_scale_sigma)
+
+
+def prior_option(path: str | None) -> tuple[float, float] | None:
+    """``CalibrationSolveOptions.depth_scale_prior`` from an earlier result file, or None."""
+    prior = None if path is None else read_scale_prior(path)
+    return None if prior is None else (prior.scale, prior.sigma)

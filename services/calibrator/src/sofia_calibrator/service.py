@@ -43,7 +43,7 @@ from .errors import InputMismatch
 from .inbox import QUERY_DEADLINE_S, Inbox
 from .online import Calibrator
 from .pairing import PairingOptions
-from .result_files import save_result
+from .result_files import prior_option, save_result
 from .samples.checks import check_sample
 from .samples.errors import CalibratorBusy, CalibratorLate, SolveFailed
 from .samples.store import SamplesPage, SampleStore
@@ -278,7 +278,7 @@ def main(args: argparse.Namespace) -> int:
     cal = Calibrator(
         store, PairingOptions(tolerance_ns=int(args.tolerance_ms * 1e6)), max(args.min_samples, 3),
         parent_frame=args.parent_frame, child_frame=args.child_frame,
-        options=CalibrationSolveOptions(setup=args.setup),
+        options=CalibrationSolveOptions(setup=args.setup, depth_scale_prior=prior_option(args.scale_prior)),
     )  # fmt: skip
     stop = StopFlag()
     with zenoh.open(zenoh_config(ZenohOptions.from_args(args))) as session:

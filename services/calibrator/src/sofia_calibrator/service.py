@@ -65,6 +65,7 @@ class Service:
                  query_deadline_s: float = QUERY_DEADLINE_S) -> None:  # fmt: skip
         self.cal, self.session, self.keys = cal, session, keys
         self.cloud_target = cloud_target  # what each camera cloud gives (None: clouds not read)
+        cal.centres = cloud_target.shared_centres if cloud_target else None
         self.query_deadline_s = query_deadline_s  # a query the worker reaches later: "busy, retry"
         self.inbox = Inbox(EVENTS_MAX, CLOUDS_MAX, QUERIES_MAX)
         self.solved_generation = -1  # the store generation of the current result (or failed solve)
@@ -171,12 +172,7 @@ class Service:
             self.cal.on_blob(obs.stamp_ns, np.array(obs.position), obs.confidence)
         elif kind == "cloud" and self.cloud_target is not None:
             cloud = pointcloud.decode(item)
-            rgb = cloud.rgb()
-            if rgb is None:
-                raise InputMismatch("camera cloud has no rgb field")
-            shape = (cloud.height, cloud.width, 3)
-            p_cam, confidence = self.cloud_target.find(cloud.xyz().reshape(shape), rgb.reshape(shape))
-            self.cal.on_blob(cloud.stamp_ns, p_cam, confidence)
+            self.cal.on_blob(cloud.stamp_ns, *self.cloud_target.find_in(cloud))
         elif kind == "pair":
             self.cal.pair_pending()
         elif kind == "query":

@@ -28,15 +28,15 @@ from sofia_arm.poses import solve_ik, views_of
 from sofia_calibrator.blob import find_blob
 from sofia_calibrator.errors import CalibrationError
 from sofia_calibrator.fitting.diagnostics import error6
-from sofia_schemas.transforms import invert, rotation_angle
+from sofia_schemas.transforms import invert, pose_gap
 
 BLOB = np.array([0.5, 0.05, 0.0005])
 TARGET_MM = 1.0
 
 
 def error(T_est: np.ndarray, T_true: np.ndarray) -> tuple[float, float]:
-    return (1e3 * float(np.linalg.norm(T_est[:3, 3] - T_true[:3, 3])),
-            float(np.degrees(rotation_angle(T_est[:3, :3].T @ T_true[:3, :3]))))  # fmt: skip
+    dt, dr = pose_gap(T_est, T_true)
+    return 1e3 * dt, float(np.degrees(dr))
 
 
 def camera_mount(rng: np.random.Generator) -> np.ndarray:

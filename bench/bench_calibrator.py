@@ -25,7 +25,7 @@ from sofia_calibrator.fitting import so3
 from sofia_calibrator.fitting.diagnostics import error6
 from sofia_calibrator.fitting.simulate import make_problem
 from sofia_calibrator.fitting.solver import refine
-from sofia_schemas.transforms import rotation_angle
+from sofia_schemas.transforms import pose_gap
 
 LAB = Path(__file__).resolve().parents[1] / "data" / "lab"
 # Times are CPU time of this process (ours and the baseline alike): on a shared, loaded machine
@@ -37,8 +37,8 @@ CHI2_6_68 = 7.0406  # 68.27 % quantile of chi-square with 6 degrees of freedom
 
 def errors(T_est: np.ndarray, T_true: np.ndarray) -> tuple[float, float]:
     """(translation error mm, rotation error deg) of (4, 4) estimates."""
-    dt = 1e3 * float(np.linalg.norm(T_est[:3, 3] - T_true[:3, 3]))
-    return dt, float(np.degrees(rotation_angle(T_est[:3, :3].T @ T_true[:3, :3])))
+    dt, dr = pose_gap(T_est, T_true)
+    return 1e3 * dt, float(np.degrees(dr))
 
 
 def convergence(n_problems: int, rng: np.random.Generator) -> dict[str, float]:

@@ -4,8 +4,9 @@ Per data set: the leave-one-out error (real sets: every fold refitted) or the er
 (synthetic), the correction chosen, the translation 1-sigma coverage, the time per calibration, and
 the same for the baseline: ``scipy.optimize.least_squares`` on the point objective (rigid, from the
 same closed-form start) for points, OpenCV's best ``calibrateHandEye`` method for pose targets.
-Then the translation coverage and false outliers under noise the solver does not assume, and the
-model choice on small subsets of the lab set.
+Then the translation coverage and false outliers under noise the solver does not assume, the
+model choice on small subsets of the lab set, and the depth scale of an earlier calibration used
+as a prior (lab subsets; a synthetic camera re-mounted, its scale kept or moved).
 
 Data: ``data/lab`` (the lab's 11 real samples, shipped); RegHEC's real sphere set (not shipped:
 ``--reghec DIR``, a checkout of github.com/Shiyu-Xing/RegHEC); handeye_calib_camodocal's 42 real
@@ -274,20 +275,57 @@ def main() -> None:
     coverage_table(args.trials * 2 if args.coverage_sets is None else args.coverage_sets, args.seed)
     print()
     subsets = min(40, 4 * args.trials)
+    full = calibrate(p_cam, T).correction
     print(
-        f"| lab subsets (data/lab), {subsets} random per size | held-out RMS: default | rigid | depth_scale always |"
+        f"| lab subsets (data/lab), {subsets} random per size | held-out RMS: default | rigid | depth_scale always "
+        "| prior: the full set's scale |"
     )
-    print("|---|---|---|---|")
+    print("|---|---|---|---|---|")
     for m in (6, 7, 8):
-        errs: dict[str, list[float]] = {"auto": [], "rigid": [], "depth_scale": []}
+        errs: dict[str, list[float]] = {"auto": [], "rigid": [], "depth_scale": [], "prior": []}
         for _ in range(subsets):
             k = np.sort(rng.choice(11, m, replace=False))
             h = np.setdiff1d(np.arange(11), k)
             for corr, out in errs.items():
-                cal = calibrate(p_cam[k], T[k], leave_one_out=False, correction=corr)
+                kw = (
+                    {"depth_scale_prior": (full.depth_scale, full.depth_scale_sigma)}
+                    if corr == "prior"
+                    else {}
+                )
+                cal = calibrate(p_cam[k], T[k], leave_one_out=False, correction="auto" if kw else corr, **kw)
                 out.extend(1e3 * np.linalg.norm(cal.map_to_base(p_cam[h], T[h]) - cal.p_base, axis=1))
         r = {c: float(np.sqrt(np.mean(np.square(v)))) for c, v in errs.items()}
-        print(f"| {m} samples | {r['auto']:.2f} mm | {r['rigid']:.2f} mm | {r['depth_scale']:.2f} mm |")
+        print(
+            f"| {m} samples | {r['auto']:.2f} mm | {r['rigid']:.2f} mm | {r['depth_scale']:.2f} mm | {r['prior']:.2f} mm |"
+        )
+    print()
+    remount_table(max(args.trials, 50), args.seed)
+
+
+def remount_table(trials: int, seed: int) -> None:
+    """A camera calibrated once (11 synthetic views), then on a new mount from n views, with the
+    first calibration's depth scale as the prior: RMS translation error over the plain ML fit of
+    the true model, by default and with the prior."""
+    print(
+        f"| synthetic re-mount, {trials} sets per n | depth scale then -> now | n | default / ML | prior / ML |"
+    )
+    print("|---|---|---|---|---|")
+    for s_then, s_now in ((1.0, 1.0), (0.96, 0.96), (0.95, 0.96), (0.95, 0.97)):
+        for n in (6, 11, 20):
+            rng = np.random.default_rng([seed, n, int(1000 * s_now)])
+            errs: dict[str, list[float]] = {"auto": [], "prior": [], "ml": []}
+            for _ in range(trials):
+                e = make_problem(11, rng, robot_noise_m=0.0015, depth_scale=s_then)
+                then = calibrate(
+                    e.p_cam, e.T_base_flange, leave_one_out=False, correction="depth_scale"
+                ).correction
+                pr = make_problem(n, rng, robot_noise_m=0.0015, depth_scale=s_now)
+                for name, kw in (("auto", {}), ("prior", {"depth_scale_prior": (then.depth_scale, then.depth_scale_sigma)}),
+                                 ("ml", {"correction": "rigid" if s_now == 1.0 else "depth_scale"})):  # fmt: skip
+                    cal = calibrate(pr.p_cam, pr.T_base_flange, leave_one_out=False, **kw)  # type: ignore[arg-type]
+                    errs[name].append(float(np.linalg.norm(cal.translation - pr.T_flange_cam[:3, 3])))
+            r = {k: float(np.sqrt(np.mean(np.square(v)))) for k, v in errs.items()}
+            print(f"| | {s_then} -> {s_now} | {n} | {r['auto'] / r['ml']:.3f} | {r['prior'] / r['ml']:.3f} |")
 
 
 if __name__ == "__main__":

@@ -13,9 +13,10 @@ from sofia_arm.cli import build_command, register
 from sofia_arm.clock import ClockMap
 from sofia_arm.config import ArmConfig, load_config
 from sofia_arm.errors import ConfigError, OutsideJointLimits, OutsideWorkspace, TargetRefused, Unreachable
-from sofia_arm.safety import Safety, pose_error, solve_ik
+from sofia_arm.safety import Safety, solve_ik
 from sofia_schemas.kinematics import Q_MAX, Q_MIN, panda_fk, quat_xyzw_to_rotation, rotation_to_quat_xyzw
 from sofia_schemas.messages import ArmCommand
+from sofia_schemas.transforms import pose_gap
 
 HOME = np.array(ArmConfig().home_q)
 
@@ -68,8 +69,8 @@ def test_ik_finds_the_pose_of_joint_positions_near_home(dq: list[float]) -> None
     T = panda_fk(q_true)
     q = solve_ik(T, HOME, Q_MIN, Q_MAX)
     assert q is not None
-    dp, dr = pose_error(T, panda_fk(q))
-    assert dp < 1e-5 and dr < 1e-4
+    dp, dr = pose_gap(T, panda_fk(q))
+    assert dp < 1e-5 and np.degrees(dr) < 1e-4
 
 
 def test_shared_kinematics_quaternions_round_trip_and_calibrator_uses_them() -> None:

@@ -190,3 +190,37 @@ def test_service_extracts_the_blob_from_camera_clouds(
     assert np.linalg.norm(np.array(body["translation"]) - cal_session.T_flange_cam[:3, 3]) < 0.005
     ok, body = query_json(session, keys.status("calibrator"))
     assert ok and body["counters"]["dropped_clouds"] == 0 and body["counters"]["samples"] == 5
+
+
+def test_service_solves_with_an_earlier_calibrations_scale(
+    sofia_proc, session, collect, robot_id: str, tmp_path: Path, lab_dir: Path
+) -> None:  # type: ignore[no-untyped-def]
+    from sofia_calibrator import read_lab
+
+    keys = Keys(robot_id)
+    p, T = read_lab(lab_dir / "poses.txt", lab_dir / "tfs.txt")
+    earlier = tmp_path / "earlier.yaml"
+    earlier.write_text(
+        "camera_correction:\n  model: depth_scale\n  depth_scale: 0.9494\n  depth_scale_sigma: 0.0069\n"
+    )
+    proc = sofia_proc(
+        "calibrator", "serve", "--state-dir", str(tmp_path / "state"), "--scale-prior", str(earlier)
+    )
+    proc.wait_for_log("calibrator ready")
+    wait_until_served(session, keys)
+    got = collect(keys.calibration_result)
+    time.sleep(0.5)
+    for k in range(6):
+        publish_sample(session, keys, k, p[k], T[k])
+    wait_for(lambda: any(r.n_samples == 6 for r in got.models(keys.calibration_result, CalibrationResult)))
+    last = [r for r in got.models(keys.calibration_result, CalibrationResult) if r.n_samples == 6][-1]
+    offline = calibrate(p[:6], T[:6], depth_scale_prior=(0.9494, 0.0069))
+    assert last.correction_reason == offline.correction_reason
+    assert last.correction_reason.startswith("depth_scale: prior 0.9494"), last.correction_reason
+    assert np.abs(np.array(last.matrix) - offline.T_flange_cam).max() < 1e-6
+    # a caller's options may drop the prior, or give one that cannot apply (one clear line)
+    ok, body = query_json(session, keys.calibrator_op("solve"), "{}")
+    assert ok and "prior" not in body["correction_reason"], body["correction_reason"]
+    bad = {"depth_scale_prior": [0.95, 0.01], "correction": "rigid"}
+    ok, body = query_json(session, keys.calibrator_op("solve"), json.dumps(bad))
+    assert not ok and "needs correction 'auto' or 'depth_scale'" in body["message"], body

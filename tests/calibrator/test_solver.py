@@ -9,14 +9,13 @@ from scipy.spatial.transform import Rotation
 from sofia_calibrator import calibrate, solve
 from sofia_calibrator.fitting.simulate import make_problem
 from sofia_calibrator.fitting.so3 import exp, hat, project
-from sofia_schemas.transforms import rotation_angle
+from sofia_schemas.transforms import pose_gap
 
 
 def _errors(T_est: np.ndarray, T_true: np.ndarray) -> tuple[float, float]:
     """(translation error mm, rotation error deg)."""
-    dt = 1e3 * float(np.linalg.norm(T_est[:3, 3] - T_true[:3, 3]))
-    dr = float(np.degrees(rotation_angle(T_est[:3, :3].T @ T_true[:3, :3])))
-    return dt, dr
+    dt, dr = pose_gap(T_est, T_true)
+    return 1e3 * dt, float(np.degrees(dr))
 
 
 @settings(max_examples=40, deadline=None)

@@ -26,13 +26,16 @@ def _cap(centre: np.ndarray, radius: float, n: int, rng: np.random.Generator) ->
 
 
 def _scene(centre: np.ndarray, radius: float, rng: np.random.Generator, noise_m: float = 5e-4) -> np.ndarray:
-    """A ball on a table with uniform clutter, camera frame, metres: 40 % of the points on the ball."""
+    """A ball on a table with uniform clutter, camera frame, metres: 40 % of the points on the ball,
+    each point's range off by noise_m (1-sigma) times (range / 0.5 m)^2, as a depth camera's."""
     ball = _cap(centre, radius, 2000, rng)
     u = rng.uniform(-0.25, 0.25, (2500, 2))
     table = np.c_[u, centre[2] + radius + 0.02 * u[:, 1]]  # a plane just behind the ball
     clutter = np.c_[rng.uniform(-0.3, 0.3, (500, 2)), rng.uniform(0.2, 0.9, 500)]
     pts = np.concatenate([ball, table, clutter])
-    return np.asarray(pts + rng.standard_normal(pts.shape) * noise_m)
+    rays = pts / np.linalg.norm(pts, axis=1, keepdims=True)
+    ranges = np.linalg.norm(pts, axis=1)
+    return np.asarray(pts + rays * (rng.standard_normal(len(pts)) * noise_m * (ranges / 0.5) ** 2)[:, None])
 
 
 @pytest.mark.parametrize("known", [False, True])
@@ -46,7 +49,7 @@ def test_a_ball_on_a_table_is_found_with_a_fair_uncertainty(known: bool) -> None
         assert abs(s.radius_m - 0.04) < 1e-3
         assert 1800 <= s.n_inliers <= 2300 and s.rms_m < 1e-3
         z.append((s.p_cam - centre) / s.sigma_cam)
-    # the reported 1-sigma describes the error (i.i.d. noise here): normalised errors near unit RMS
+    # the reported 1-sigma describes the error (independent range noise): normalised errors near unit RMS
     assert 0.5 < float(np.sqrt(np.mean(np.square(z)))) < 2.0, np.round(z, 2)
 
 

@@ -65,3 +65,19 @@ def test_matrices_that_are_no_rotation_are_projected_or_refused() -> None:
         matrix_to_quat_xyzw(np.full((3, 3), np.nan))
     with pytest.raises(ValueError):
         matrix_to_quat_xyzw(np.eye(4))
+
+
+def test_pose_gap_is_the_translation_and_the_angle_between_two_poses() -> None:
+    from sofia_schemas.transforms import pose_gap
+
+    rng = np.random.default_rng(0)
+    for angle in (0.0, 1e-9, 1e-4, 0.3, np.pi - 1e-6):
+        axis = rng.standard_normal(3)
+        T_a = make_transform(rng.uniform(-1, 1, 3), Rotation.random(random_state=rng).as_quat())
+        T_b = T_a.copy()
+        T_b[:3, :3] = T_a[:3, :3] @ Rotation.from_rotvec(angle * axis / np.linalg.norm(axis)).as_matrix()
+        T_b[:3, 3] += [0.003, -0.004, 0.0]
+        dt, dr = pose_gap(T_a, T_b)
+        assert dt == pytest.approx(0.005, abs=1e-12)
+        assert dr == pytest.approx(angle, abs=1e-12 + 1e-9 * angle), angle  # small angles kept exact too
+        assert pose_gap(T_b, T_a) == pytest.approx((dt, dr), abs=1e-12)

@@ -133,6 +133,12 @@ def rotation_angle(R: np.ndarray) -> np.ndarray:
     return np.arccos(np.clip((tr - 1.0) / 2.0, -1.0, 1.0))
 
 
+def pose_gap(T_a: np.ndarray, T_b: np.ndarray) -> tuple[float, float]:
+    """(translation metres, rotation radians) between two (4, 4) poses of one frame."""
+    angle = Rotation.from_matrix(T_a[:3, :3].T @ T_b[:3, :3]).magnitude()
+    return float(np.linalg.norm(T_a[:3, 3] - T_b[:3, 3])), float(angle)
+
+
 def interpolate_poses(T_a: np.ndarray, T_b: np.ndarray, s: float | np.ndarray) -> np.ndarray:
     """Poses a fraction ``s`` (scalar, or (n,) in [0, 1]) of the way from ``T_a`` to ``T_b`` (4, 4):
     translation linear, rotation by slerp. (4, 4) for a scalar ``s``, else (n, 4, 4)."""

@@ -171,6 +171,8 @@ class CalibrationSolveOptions(Message):
     guess: tuple[float, float, float, float, float, float, float] | None = None  # x y z qx qy qz qw
     # eye-in-hand (T_flange_cam, target in the base frame) | eye-to-hand (T_base_cam, target on the flange)
     setup: Literal["eye-in-hand", "eye-to-hand"] = "eye-in-hand"
+    # (depth scale, 1-sigma) of an earlier calibration of the same camera, the prior of this one's
+    depth_scale_prior: tuple[Finite, Finite] | None = None
 
 
 class CalibrationRemove(Message):

@@ -13,14 +13,14 @@ from sofia_calibrator.blob import find_blob
 from sofia_calibrator.errors import CalibrationError
 from sofia_calibrator.targets.ball import Ball, find_ball
 from sofia_calibrator.targets.sphere_shared import fit_shared
-from sofia_schemas.transforms import apply, invert, make_transform
+from sofia_schemas.transforms import apply, invert, make_transform, pose_gap
 
 from . import plan
 from .autocal_io import Eye, Frame, Progress
 from .autocal_options import AutocalOptions
 from .errors import ArmError
 from .motion import ArmMotion
-from .poses import Reach, look_at, pose_distance, solve_ik
+from .poses import Reach, look_at, solve_ik
 
 log = logging.getLogger("sofia.arm.autocal")
 
@@ -68,7 +68,7 @@ class Looker:
         if not self.arm.wait_still(10.0):
             raise AutocalError(step, "the arm did not come to rest (stopped, preempted or timed out)")
         if not res.ok:  # refused, or ended off the target: near enough will do (the pose is measured)
-            dt, dr = pose_distance(self.arm.T_base_flange(), T_base_flange)
+            dt, dr = pose_gap(self.arm.T_base_flange(), T_base_flange)
             if dt > NEAR_M or dr > np.radians(NEAR_DEG):
                 log.info("%s: skipped, move failed: %s", step, res.reason)
                 return False
@@ -83,7 +83,7 @@ class Looker:
             if frame is None:
                 raise AutocalError(step, f"no camera frame within {self.opts.frame_timeout_s} s")
             T1 = self.arm.T_base_flange()
-            dt, dr = pose_distance(T0, T1)
+            dt, dr = pose_gap(T0, T1)
             if dt < STILL_M and dr < np.radians(STILL_DEG):
                 return T1, frame
             if not self.arm.wait_still(10.0):

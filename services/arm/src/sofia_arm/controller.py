@@ -21,12 +21,13 @@ import franky
 import numpy as np
 from sofia_schemas.kinematics import joint_limits, panda_fk, rotation_to_quat_xyzw
 from sofia_schemas.messages import ArmCommandName, ArmResult, ArmStatus
+from sofia_schemas.transforms import pose_gap
 
 from .command_token import Token
 from .config import ArmConfig
 from .errors import NotReady
 from .robot import RobotLink, stop_motion
-from .safety import Safety, pose_error, solve_ik
+from .safety import Safety, solve_ik
 
 log = logging.getLogger(__name__)
 POLL_S = 0.01
@@ -37,9 +38,8 @@ SETTLE_MEAN_S = 0.2  # ... then average the joint positions over this much
 FAULT_MODES = {"Reflex", "UserStopped", "AutomaticErrorRecovery", "Other"}
 # A motion without a new robot state for this long, the link up, is stuck (a dead link: libfranka's UDP time-out)
 STATE_SILENCE_S = 5.0
-# Robot time between one motion's end and the next one's start: franky-sim reading the previous
-# motion's late finish command after the next Move ended the new one at once, and libfranka waited
-# forever for a reply it had already taken (README: "A stall of the cell, found and fixed").
+# Robot time between one motion's end and the next one's start: without it franky-sim read the last
+# motion's late finish command as ending the next Move, and libfranka waited forever for a reply.
 MOTION_GAP_S = 0.02
 
 
@@ -192,9 +192,8 @@ class Controller:
             log.info("motion ended with %s", e)
 
     def wait_still(self, token: Token | None, timeout_s: float) -> bool:
-        """Wait until the arm is still; False on cancellation or after ``timeout_s`` of the robot's
-        clock (a simulator slower than real time gets the same physical time), at most 20x that
-        of wall time."""
+        """Wait until the arm is still; False on cancellation or after ``timeout_s`` of the robot's clock
+        (a simulator slower than real time gets the same physical time), at most 20x that of wall time."""
         wall_deadline = time.monotonic() + 20 * timeout_s
         start = self.link.latest
         robot_deadline = (start.robot_time_ns if start else 0) + int(timeout_s * 1e9)
@@ -279,7 +278,8 @@ class Controller:
                 log.warning("%s: the arm did not come to rest within %g s", command, c.settle_timeout_s)
             q_meas = self.link.mean_q(SETTLE_MEAN_S)
             assert q_meas is not None
-            dp, dr = pose_error(T_goal, panda_fk(q_meas, check_limits=False))
+            dp, dr = pose_gap(T_goal, panda_fk(q_meas, check_limits=False))
+            dr = np.degrees(dr)
             fine = dp <= c.position_tolerance_m / 2 and dr <= c.rotation_tolerance_deg / 2
             if fine or i == c.max_corrections or not still:
                 break

@@ -23,14 +23,13 @@ import zenoh
 from sofia_runtime.client import QueryError, ask
 from sofia_schemas.keys import Keys
 from sofia_schemas.messages import ArmCommand, ArmResult, GripperCommand, GripperResult, PickTarget
-from sofia_schemas.transforms import make_transform, matrix_to_quat_xyzw
+from sofia_schemas.transforms import make_transform, matrix_to_quat_xyzw, pose_gap
 
 from . import survey
 from .autocal_io import Progress
 from .config import ArmConfig
 from .errors import PhaseFailed, TargetRefused
 from .motion import ArmMotion
-from .poses import pose_distance
 from .safety import Safety, StepKind
 from .targets import find_target
 
@@ -146,7 +145,7 @@ class PickPlace:
             raise PhaseFailed(name, f"{res.status}: {res.reason}", res.status)
         self.arm.wait_still(5.0)
         T = self.arm.T_base_flange()
-        dt, dr = pose_distance(T, T_target)
+        dt, dr = pose_gap(T, T_target)
         if not res.ok and (dt > NEAR_M or dr > np.radians(NEAR_DEG)):
             raise PhaseFailed(name, f"{res.status}: {res.reason}", res.status)
         self.reached[name] = T
@@ -156,7 +155,7 @@ class PickPlace:
         """A move, tried once more when it ended ``failed`` short of its tolerance but within
         ``RETRY_M`` (the arm did not settle in time: a simulator slowed by a loaded host)."""
         res = move()
-        if res.status == "failed" and pose_distance(self.arm.T_base_flange(), T)[0] <= RETRY_M:
+        if res.status == "failed" and pose_gap(self.arm.T_base_flange(), T)[0] <= RETRY_M:
             try:
                 return self._moved(name, res, T)
             except PhaseFailed:

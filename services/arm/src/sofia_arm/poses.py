@@ -76,13 +76,6 @@ def pose_error(T_target: np.ndarray, T: np.ndarray) -> np.ndarray:
     return np.concatenate([T_target[:3, 3] - T[:3, 3], Rotation.from_matrix(dR).as_rotvec()])
 
 
-def pose_distance(T_a: np.ndarray, T_b: np.ndarray) -> tuple[float, float]:
-    """(translation m, rotation rad) between two (4, 4) poses."""
-    dR = T_a[:3, :3].T @ T_b[:3, :3]
-    angle = float(np.arccos(np.clip((np.trace(dR) - 1.0) / 2.0, -1.0, 1.0)))
-    return float(np.linalg.norm(T_a[:3, 3] - T_b[:3, 3])), angle
-
-
 def jacobian(q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(T_base_flange (4, 4), geometric Jacobian (6, 7) in the base frame) by finite differences."""
     qs = np.vstack([q, q + FD_STEP_RAD * np.eye(7)])

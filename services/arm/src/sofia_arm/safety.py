@@ -47,13 +47,6 @@ def rotation_vectors(R_a_b: np.ndarray) -> np.ndarray:
     return np.where(s > 1e-12, q[..., :3] / np.maximum(s, 1e-300) * angle, 2.0 * q[..., :3])
 
 
-def pose_error(T_target: np.ndarray, T: np.ndarray) -> tuple[float, float]:
-    """(translation error m, rotation error deg) between two (4, 4) poses."""
-    dp = float(np.linalg.norm(T_target[:3, 3] - T[:3, 3]))
-    dr = float(np.linalg.norm(rotation_vectors(T_target[:3, :3] @ T[:3, :3].T)))
-    return dp, float(np.degrees(dr))
-
-
 def _twist_error(T_target: np.ndarray, Ts: np.ndarray) -> np.ndarray:
     """(n, 6) error from poses Ts (n, 4, 4) to T_target, base frame: translation, rotation vector."""
     dp = T_target[:3, 3] - Ts[:, :3, 3]

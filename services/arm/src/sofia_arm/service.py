@@ -33,13 +33,14 @@ from sofia_schemas.keys import ENCODING_CDR_JOINT_STATE, ENCODING_CDR_TRANSFORM,
 from sofia_schemas.kinematics import rotation_to_quat_xyzw
 from sofia_schemas.messages import ArmCommand, ArmState, FlangePose, GripperState, ServiceStatus, now_ns
 from sofia_schemas.rosmsg import encode_flange_pose, encode_joint_state
+from sofia_schemas.transforms import pose_gap
 
 from .commands import Commands
 from .config import ArmConfig
 from .controller import Controller, Token
 from .errors import ArmError
 from .robot import RateMeter, RobotLink, Sample
-from .safety import Safety, pose_error
+from .safety import Safety
 from .sim import SimProcess, start_sim
 from .world import WorldKeeper
 
@@ -130,7 +131,8 @@ class ArmService:
             or not link.is_still(self.controller.config.still_speed_rad_s, seconds=0.5)
         ):
             return
-        dp, dr = pose_error(s.O_T_EE @ np.linalg.inv(s.F_T_EE), s.T_base_flange)
+        dp, dr = pose_gap(s.O_T_EE @ np.linalg.inv(s.F_T_EE), s.T_base_flange)
+        dr = float(np.degrees(dr))
         if self.fk_check is None or (dp > 1e-3 and self.fk_check[0] <= 1.0):
             level = logging.WARNING if dp > 1e-3 else logging.INFO
             log.log(

@@ -15,7 +15,7 @@ from sofia_schemas.frames import CAMERA_FRAME as CHILD_FRAME
 from sofia_schemas.frames import FLANGE_FRAME as PARENT_FRAME
 from sofia_schemas.keys import add_robot_arg
 
-from .cli_inputs import add_target_args, load_samples, run_target
+from .cli_inputs import add_target_args, load_samples, run_target, scale_prior
 from .inbox import QUERY_DEADLINE_S
 from .samples.errors import MAX_SAMPLES
 
@@ -55,6 +55,9 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
         "--correction", default="auto", choices=("auto", "rigid", "depth_scale", "ray_scale"),
         help="camera correction fitted with the transform: auto = chosen by an F-test (default)",
     )  # fmt: skip
+    p.add_argument("--scale-prior", metavar="RESULT.yaml",
+                   help="an earlier calibration of the same camera: its depth scale is the prior of this "
+                   "one's (helps small sets; default none)")  # fmt: skip
     add_frame_args(p)
     p.add_argument("--keep-outliers", action="store_true", help="report the fit with every sample")
     add_json_option(p, "the CalibrationResult, one object", text="YAML")
@@ -80,6 +83,9 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     s.add_argument("--setup", choices=("eye-in-hand", "eye-to-hand"), default="eye-in-hand",
                    help="solve T_flange_cam (eye-in-hand) or T_base_cam (eye-to-hand: the target on the "
                    "flange); a solve query's options may change it (default eye-in-hand)")  # fmt: skip
+    s.add_argument("--scale-prior", metavar="RESULT.yaml",
+                   help="an earlier calibration of the same camera: its depth scale is the prior of each "
+                   "solve's (default none)")  # fmt: skip
     s.add_argument("--tolerance-ms", type=float, default=50.0, help="pose/blob stamp gap, ms")
     s.add_argument("--min-samples", type=int, default=3, help="samples before the first solve")
     s.add_argument("--max-samples", type=int, default=MAX_SAMPLES,
@@ -120,6 +126,7 @@ def run_calibrate(args: argparse.Namespace) -> int:
     cal = calibrate(
         p_cam, T, guess=guess, sigma=args.noise, loss=args.loss, exclude_outliers=not args.keep_outliers,
         correction=args.correction, parent_frame=args.parent_frame, child_frame=args.child_frame,
+        depth_scale_prior=scale_prior(args),
     )  # fmt: skip
     return _report(cal, args)
 

@@ -86,7 +86,7 @@ def run_target(args: argparse.Namespace) -> object:
     if args.target in ("charuco", "apriltag"):
         return calibrate_target(args.target, args.setup, **image_inputs(args), **common)
     options: dict[str, Any] = {"sigma": args.noise, "loss": args.loss, "exclude_outliers": not args.keep_outliers,
-               "correction": args.correction, **common}  # fmt: skip
+               "correction": args.correction, "depth_scale_prior": scale_prior(args), **common}  # fmt: skip
     if args.target == "sphere" and args.mcap:  # a coloured ball in the recording's camera clouds
         from .inputs.mcap import read_mcap
 
@@ -197,3 +197,10 @@ def load_samples(args: argparse.Namespace) -> tuple[np.ndarray, np.ndarray]:
             )
         return p_cam, T
     raise InputMismatch("give --poses with --tfs or --joints, or --samples FILE, or --mcap FILE")
+
+
+def scale_prior(args: argparse.Namespace) -> Any:
+    """The ScalePrior of ``--scale-prior`` (an earlier result file), or None."""
+    from .result_files import read_scale_prior
+
+    return None if args.scale_prior is None else read_scale_prior(args.scale_prior)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import logging
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -46,6 +47,8 @@ class Calibrator:
     refused: int = 0  # paired samples refused: implausible, or the log could not store them
     dropped: int = 0  # blobs dropped from a full pending list
     stamps: StampCheck = field(default_factory=StampCheck)  # poses, blobs, samples stamped in the future
+    # stamp_ns of samples -> better target centres for the solve (a ball's shared radius), if any
+    centres: Callable[[list[int]], dict[int, np.ndarray]] | None = None
 
     def on_pose(self, payload: bytes) -> None:
         pose = rosmsg.decode_flange_pose(payload)
@@ -89,6 +92,13 @@ class Calibrator:
         inverted, :mod:`sofia_calibrator.eye_to_hand`)."""
         opts = options or self.options
         p, T, ids = self.store.arrays()
+        if self.centres is not None:  # the stored centres stay as measured; the solve takes these
+            better = self.centres([s.stamp_ns for s in self.store.ordered()])
+            p = (
+                np.array([better.get(s.stamp_ns, p[i]) for i, s in enumerate(self.store.ordered())])
+                if better
+                else p
+            )
         guess = (
             None if opts.guess is None else make_transform(np.array(opts.guess[:3]), np.array(opts.guess[3:]))
         )
@@ -100,7 +110,7 @@ class Calibrator:
         cal = calibrate(
             p, T, guess=guess, sigma=opts.noise, confidence=conf, loss=opts.loss,  # type: ignore[arg-type]
             exclude_outliers=opts.exclude_outliers, correction=opts.correction,
-            parent_frame=parent, child_frame=self.child_frame,
+            depth_scale_prior=opts.depth_scale_prior, parent_frame=parent, child_frame=self.child_frame,
         )  # fmt: skip
         self.result = to_message(cal, now_ns(), ids)
         self.result = self.result.model_copy(

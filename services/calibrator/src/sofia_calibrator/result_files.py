@@ -4,8 +4,12 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from sofia_schemas.files import FileContentError, load_json_or_yaml
 from sofia_schemas.messages import CalibrationResult
+from sofia_schemas.messages.calibration import CameraCorrection
 
+from .errors import InputMismatch
+from .fitting.prior import ScalePrior
 from .formats import to_yaml
 from .samples.durable import write_atomic
 from .samples.errors import SaveFailed
@@ -26,3 +30,31 @@ def save_result(result: CalibrationResult, directory: Path) -> list[str]:
     except OSError as e:
         raise SaveFailed(e.filename or str(directory), e.strerror or str(e)) from None
     return [str(p) for p in files]
+
+
+def read_scale_prior(path: str | Path) -> ScalePrior:
+    """The depth scale and its 1-sigma of an earlier calibration's result file (YAML or JSON, as
+    ``save`` or ``--yaml`` wrote it), as a prior for calibrating the same camera again."""
+    try:
+        data = load_json_or_yaml(path)
+    except OSError as e:
+        raise InputMismatch(f"{path}: cannot be read: {e.strerror or e}") from None
+    except FileContentError as e:
+        raise InputMismatch(str(e)) from None
+    if not isinstance(data, dict) or not isinstance(data.get("camera_correction"), dict):
+        raise InputMismatch(f"{path}: not a calibration result (no camera_correction mapping)")
+    try:
+        corr = CameraCorrection.model_validate(data["camera_correction"])
+    except ValueError as e:
+        raise InputMismatch(f"{path}: camera_correction: {str(e).splitlines()[-2].strip()}") from None
+    if corr.model == "rigid" or corr.depth_scale_sigma is None:
+        raise InputMismatch(
+            f"{path}: its camera correction is {corr.model}, with no fitted depth scale to use as a prior"
+        )
+    return ScalePrior(corr.depth_scale, corr.depth_scale_sigma)
+
+
+def prior_option(path: str | None) -> tuple[float, float] | None:
+    """``CalibrationSolveOptions.depth_scale_prior`` from an earlier result file, or None."""
+    prior = None if path is None else read_scale_prior(path)
+    return None if prior is None else (prior.scale, prior.sigma)

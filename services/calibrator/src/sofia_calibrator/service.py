@@ -43,7 +43,7 @@ from .errors import InputMismatch
 from .inbox import QUERY_DEADLINE_S, Inbox
 from .online import Calibrator
 from .pairing import PairingOptions
-from .result_files import save_result
+from .result_files import prior_option, save_result
 from .samples.checks import check_sample
 from .samples.errors import CalibratorBusy, CalibratorLate, SolveFailed
 from .samples.store import SamplesPage, SampleStore
@@ -65,6 +65,7 @@ class Service:
                  query_deadline_s: float = QUERY_DEADLINE_S) -> None:  # fmt: skip
         self.cal, self.session, self.keys = cal, session, keys
         self.cloud_target = cloud_target  # what each camera cloud gives (None: clouds not read)
+        cal.centres = cloud_target.shared_centres if cloud_target else None
         self.query_deadline_s = query_deadline_s  # a query the worker reaches later: "busy, retry"
         self.inbox = Inbox(EVENTS_MAX, CLOUDS_MAX, QUERIES_MAX)
         self.solved_generation = -1  # the store generation of the current result (or failed solve)
@@ -171,12 +172,7 @@ class Service:
             self.cal.on_blob(obs.stamp_ns, np.array(obs.position), obs.confidence)
         elif kind == "cloud" and self.cloud_target is not None:
             cloud = pointcloud.decode(item)
-            rgb = cloud.rgb()
-            if rgb is None:
-                raise InputMismatch("camera cloud has no rgb field")
-            shape = (cloud.height, cloud.width, 3)
-            p_cam, confidence = self.cloud_target.find(cloud.xyz().reshape(shape), rgb.reshape(shape))
-            self.cal.on_blob(cloud.stamp_ns, p_cam, confidence)
+            self.cal.on_blob(cloud.stamp_ns, *self.cloud_target.find_in(cloud))
         elif kind == "pair":
             self.cal.pair_pending()
         elif kind == "query":
@@ -278,7 +274,7 @@ def main(args: argparse.Namespace) -> int:
     cal = Calibrator(
         store, PairingOptions(tolerance_ns=int(args.tolerance_ms * 1e6)), max(args.min_samples, 3),
         parent_frame=args.parent_frame, child_frame=args.child_frame,
-        options=CalibrationSolveOptions(setup=args.setup),
+        options=CalibrationSolveOptions(setup=args.setup, depth_scale_prior=prior_option(args.scale_prior)),
     )  # fmt: skip
     stop = StopFlag()
     with zenoh.open(zenoh_config(ZenohOptions.from_args(args))) as session:

@@ -17,6 +17,7 @@ from .advice import criterion_advice, noise_warning, redundancy_warning
 from .fit import Fit, Problem, Selection
 from .influence import Influence, influence
 from .noise import ISOTROPIC_PRIOR_M, NoiseModel, camera_sigma
+from .prior import ScalePrior
 from .screen import gross_errors
 from .solver import LOSSES
 
@@ -113,6 +114,22 @@ def _models(correction: str) -> tuple[str, ...]:
     return (correction,)
 
 
+def _prior(prior: ScalePrior | tuple[float, float] | None, correction: str) -> ScalePrior | None:
+    if prior is None or isinstance(prior, ScalePrior):
+        out = prior
+    else:
+        try:
+            scale, sigma = (float(x) for x in prior)
+        except (TypeError, ValueError):
+            raise InputMismatch(f"depth_scale_prior must be (scale, sigma), got {prior!r}") from None
+        out = ScalePrior(scale, sigma)
+    if out is not None and correction not in ("auto", "depth_scale"):
+        raise InputMismatch(
+            f"a depth-scale prior needs correction 'auto' or 'depth_scale', got {correction!r}"
+        )
+    return out
+
+
 def _loo_mm(sel: Selection, idx: np.ndarray, residuals_mm: np.ndarray, inf: Influence | None) -> np.ndarray:
     """(n_all,) leave-one-out prediction error of each sample, mm (hat matrix for the samples of
     the fit; the plain residual for the others, which the fit did not use). ``inf``: the selection's
@@ -138,6 +155,7 @@ def calibrate(
     leave_one_out: bool = True,
     correction: str = "auto",
     confidence: np.ndarray | None = None,
+    depth_scale_prior: ScalePrior | tuple[float, float] | None = None,
     parent_frame: str = PARENT_FRAME,
     child_frame: str = CHILD_FRAME,
 ) -> Calibration:
@@ -152,7 +170,9 @@ def calibrate(
     D435 model times a factor; "uniform": isotropic; an (n, 3) or (n,) array (metres): relative
     weights times a factor. confidence: optional (n,) in (0, 1] dividing each sample's sigma.
     correction: "auto" chooses rigid or depth_scale by an F-test (``correction.MODEL_ALPHA``); or
-    one of rigid, depth_scale, ray_scale.
+    one of rigid, depth_scale, ray_scale. depth_scale_prior: (scale, 1-sigma) of an earlier
+    calibration of the same camera, or a :class:`ScalePrior`: the depth scale is then fitted with it
+    as a prior (:mod:`sofia_calibrator.fitting.prior`), no test; correction must be auto or depth_scale.
 
     Outliers: the studentized leave-one-out test (F(3, dof - 3), family-wise false-alarm rate
     ``outlier_alpha``), worst first, under the chosen correction, among the gross errors of a
@@ -169,7 +189,8 @@ def calibrate(
     camera = camera_sigma(p)
     noise = _noise(p, sigma, confidence, camera)
     warnings = dg.check_motion(T)
-    prob = Problem(p, T, noise, g, loss, loss_scale, _models(correction), camera)
+    prior = _prior(depth_scale_prior, correction)
+    prob = Problem(p, T, noise, g, loss, loss_scale, _models(correction), camera, prior)
     n = len(p)
     idx = np.arange(n)
     sel_all = prob.select(idx)

@@ -21,6 +21,8 @@ import numpy as np
 from scipy.special import fdtrc
 from sofia_schemas.messages.calibration import CameraCorrection
 
+from ..errors import InputMismatch
+
 MODELS = ("rigid", "depth_scale", "ray_scale")
 # The models ``correction="auto"`` chooses between. A D435's error is in its depth (stereo
 # disparity), and real data favour the depth-only scale: offering ray_scale as well let the test
@@ -60,6 +62,11 @@ def message(model: str, beta: np.ndarray, beta_sigma: np.ndarray | None) -> Came
     if model == "rigid":
         return CameraCorrection()
     sig = None if beta_sigma is None else float(beta_sigma[0])
+    if not 1.0 + float(beta[0]) > 0.0:
+        raise InputMismatch(
+            f"the fitted {model} came out {1.0 + float(beta[0]):.3f}: too few or too similar views to fit a "
+            "scale; calibrate with correction 'auto' or 'rigid', or add views"
+        )
     return CameraCorrection(model=model, depth_scale=1.0 + float(beta[0]), depth_scale_sigma=sig)  # type: ignore[arg-type]
 
 

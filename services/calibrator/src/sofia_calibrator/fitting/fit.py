@@ -16,6 +16,7 @@ from . import fit_kernels as fk
 from . import kernels, so3
 from . import uncertainty as uq
 from .noise import NoiseModel, rms_mm
+from .prior import ScalePrior, fit_with_prior
 from .solver import Solution, refine, solve
 
 _EYE4 = np.eye(4)
@@ -115,6 +116,7 @@ class Problem:
     loss_scale: float
     models: tuple[str, ...] = cc.AUTO_MODELS  # the first is the reference (rigid)
     camera: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))  # (n, 3) camera-model sigma
+    prior: ScalePrior | None = None  # the depth scale of an earlier calibration (models: rigid, depth_scale)
 
     def solve(self, idx: np.ndarray, model: str, sigma: np.ndarray, start: Solution | None) -> Solution:
         """The ``model`` solution of samples ``idx``: warm from ``start``, else from every start."""
@@ -138,7 +140,7 @@ class Problem:
         ref = self.solve(idx, self.models[0], sigma0, start)
         noise = self.noise.estimated(ref.errors, idx, 3 * m - 9 - cc.N_EXTRA[self.models[0]])
         sigma = noise.sigma(idx)
-        models = self.models if m >= cc.MIN_SAMPLES_FOR_SCALE else self.models[:1]
+        models = self.models if m >= cc.MIN_SAMPLES_FOR_SCALE or self.prior else self.models[:1]
         p, T = self.p_cam[idx], self.T_base_flange[idx]
         ks = [cc.N_EXTRA[mo] for mo in models]
         assert ref.J is not None
@@ -151,6 +153,11 @@ class Problem:
             for b, (mo, kb) in enumerate(zip(models, ks, strict=True))
         ]
         chosen, reason = cc.choose(cands) if len(cands) > 1 else (cands[0], f"{cands[0].model} (as asked)")
+        if self.prior is not None:
+            sel = self._with_prior(cands, dx, ref, p, T, sigma, noise)
+            if sel.solution is not ref:
+                return sel
+            reason = f"{reason} ({sel.reason})"
         k = cands.index(chosen)
         sol = refine(p, T[:, :3, :3], T[:, :3, 3], sigma, ref.R @ so3.exp(dx[k, :3]), ref.t + dx[k, 3:6],
                      ref.p_base + dx[k, 6:9], self.loss, self.loss_scale, model=chosen.model, beta=chosen.beta)  # fmt: skip
@@ -163,6 +170,20 @@ class Problem:
                 d = dx[b] - dx[k]
                 extra += w[b] * (cov9[b] + uq.SELECTION_WIDENING * d[:, None] * d)
         return Selection(sol, cands, reason, noise, extra, w[k], ref.errors)
+
+    def _with_prior(self, cands: list[cc.Candidate], dx: np.ndarray, ref: Solution, p: np.ndarray,
+                    T: np.ndarray, sigma: np.ndarray, noise: NoiseModel) -> Selection:  # fmt: skip
+        """The depth-scale fit under ``self.prior`` (:func:`fit_with_prior`), or the reference fit
+        carrying the reason when the prior is not used."""
+        assert self.prior is not None
+        k, c = len(cands) - 1, cands[-1]
+        data = refine(p, T[:, :3, :3], T[:, :3, 3], sigma, ref.R @ so3.exp(dx[k, :3]), ref.t + dx[k, 3:6],
+                      ref.p_base + dx[k, 6:9], self.loss, self.loss_scale, model=c.model, beta=c.beta)  # fmt: skip
+        sol, reason = fit_with_prior(data, self.prior, p, T, sigma, self.loss, self.loss_scale)
+        if sol is None:
+            return Selection(ref, cands, reason, noise)
+        c.chi2, c.beta = sol.cost, sol.beta
+        return Selection(sol, cands, reason, noise, np.zeros((9, 9)), 1.0, ref.errors)
 
     def explain(self, idx: np.ndarray, sel: Selection) -> Fit:
         """The :class:`Fit` of a selection over samples ``idx``."""

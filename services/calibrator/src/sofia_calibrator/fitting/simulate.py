@@ -2,12 +2,16 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
+from typing import TypeVar
 
 import numpy as np
 from scipy.spatial.transform import Rotation
 
 from .noise import camera_sigma, sample_noise
+
+P = TypeVar("P", "Problem", "EyeToHandProblem")  # a simulated eye-in-hand or eye-to-hand problem
 
 
 @dataclass
@@ -100,17 +104,19 @@ def unmodelled_problem(kind: str, n: int, rng: np.random.Generator) -> Problem:
     (depth reads 1 / 0.95 long, 1.5 mm robot noise). The robot error is added to the reported
     flange translations; ``p_cam`` is the measured blob, camera frame, metres.
     """
-    _check_kind(kind)
-    pr = make_problem(n, rng, noise_scale=0.0, depth_scale=0.95 if kind == "scale" else 1.0)
+    return _with_unmodelled(kind, lambda scale: make_problem(n, rng, noise_scale=0.0, depth_scale=scale), rng)
+
+
+def _with_unmodelled(kind: str, make: Callable[[float], P], rng: np.random.Generator) -> P:
+    """``make(depth_scale)``'s noise-free problem with the errors of ``kind`` added: camera errors
+    on ``p_cam``, robot errors on the reported flange translations."""
+    if kind not in UNMODELLED_NOISE:
+        raise ValueError(f"kind must be one of {UNMODELLED_NOISE}, got {kind!r}")
+    pr = make(0.95 if kind == "scale" else 1.0)
     camera_errors, robot_errors = unmodelled_errors(kind, pr.p_cam, rng)
     pr.T_base_flange[:, :3, 3] += robot_errors
     pr.p_cam = pr.p_cam + camera_errors
     return pr
-
-
-def _check_kind(kind: str) -> None:
-    if kind not in UNMODELLED_NOISE:
-        raise ValueError(f"kind must be one of {UNMODELLED_NOISE}, got {kind!r}")
 
 
 def unmodelled_errors(
@@ -181,12 +187,9 @@ def unmodelled_eye_to_hand(kind: str, n: int, rng: np.random.Generator) -> EyeTo
     """An eye-to-hand problem (:func:`make_eye_to_hand`) with the errors of
     :func:`unmodelled_problem`'s ``kind``: camera errors on ``p_cam``, robot errors on the reported
     flange translations."""
-    _check_kind(kind)
-    pr = make_eye_to_hand(n, rng, noise_scale=0.0, depth_scale=0.95 if kind == "scale" else 1.0)
-    camera_errors, robot_errors = unmodelled_errors(kind, pr.p_cam, rng)
-    pr.T_base_flange[:, :3, 3] += robot_errors
-    pr.p_cam = pr.p_cam + camera_errors
-    return pr
+    return _with_unmodelled(
+        kind, lambda scale: make_eye_to_hand(n, rng, noise_scale=0.0, depth_scale=scale), rng
+    )
 
 
 def ball_cloud(centre: np.ndarray, radius: float, rng: np.random.Generator, n: int = 1500) -> np.ndarray:

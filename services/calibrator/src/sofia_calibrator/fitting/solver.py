@@ -44,6 +44,7 @@ class Solution:
     beta: np.ndarray = field(default_factory=lambda: np.zeros(0))  # (k,) correction unknowns
     J: np.ndarray | None = None  # (3 n, 9 + k) whitened Jacobian at the solution
     whitened: np.ndarray | None = None  # (n, 3) whitened residuals (errors / sigma)
+    prior_info: float = 0.0  # information of a prior on beta[0], included in JtJ (:mod:`.prior`)
 
     @property
     def T_flange_cam(self) -> np.ndarray:

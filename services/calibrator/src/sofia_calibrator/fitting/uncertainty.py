@@ -70,7 +70,7 @@ def noise_by_axis(sol: Solution, noise: NoiseModel, idx: np.ndarray) -> np.ndarr
 def parameter_covariance(sol: Solution, noise: NoiseModel, idx: np.ndarray) -> np.ndarray | None:
     """((9 + k), (9 + k)) covariance of the solution's unknowns (theta_cam, t, p_base, beta) under
     the noise of :func:`noise_by_axis`, through the fit's weights (``sol.J`` is whitened by
-    ``noise.sigma(idx)``): C J^T diag(s^2 / sigma^2) J C, C = (J^T J)^-1. None when
+    ``noise.sigma(idx)``): C (J^T diag(s^2 / sigma^2) J + P) C, C = (J^T J + P)^-1, P a prior's information. None when
     :func:`noise_by_axis` is."""
     s = noise_by_axis(sol, noise, idx)
     if s is None:
@@ -78,7 +78,10 @@ def parameter_covariance(sol: Solution, noise: NoiseModel, idx: np.ndarray) -> n
     assert sol.J is not None
     C = inverse(sol.JtJ)
     Jw = sol.J * (s / noise.sigma(idx)).reshape(-1, 1)
-    return np.asarray(C @ (Jw.T @ Jw) @ C)
+    M = Jw.T @ Jw
+    if sol.prior_info:
+        M[9, 9] += sol.prior_info
+    return np.asarray(C @ M @ C)
 
 
 def likelihood_ratio(chi2_rigid: float, chi2_model: float, n_obs: int) -> float:

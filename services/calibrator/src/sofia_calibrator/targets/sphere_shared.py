@@ -4,15 +4,16 @@ A sphere's radius fitted in one view trades off against its centre along the vie
 near cap is seen), so per-view radii scatter and drag their centres with them. The views see the
 same ball: each view is segmented on its own (RANSAC, :func:`~.sphere.segment_sphere`), then either
 
-- ``joint``: one geometric least-squares fit (:func:`scipy.optimize.least_squares`, soft-L1, sparse
-  Jacobian) of every centre and the one radius on all the views' inliers, each view's residuals
-  divided by its own fit's RMS so that near and far views weigh by their noise; or
+- ``joint``: one least-squares fit (:func:`scipy.optimize.least_squares`, soft-L1, sparse
+  Jacobian) of every centre and the one radius on all the views' inliers, along their viewing
+  rays (:func:`~.sphere.ray_residuals`), each view's residuals divided by its own RMS so that near
+  and far views weigh by their noise; or
 - ``median``: the median of the per-view fitted radii, then each centre refitted with it (the
   joint fit's start).
 
 The default is the joint fit. On synthetic views of a 25 mm ball at 0.45-0.9 m with D435 depth
-noise (12 sets of 10 views) the centres are off by 0.89 mm RMS (joint), 1.26 mm (median) and
-1.53 mm (a radius per view; 0.20 mm with the radius given); on RegHEC's real sphere set all agree
+noise (12 sets of 10 views) the centres are off by 0.10 mm RMS (joint), 0.11 mm (median) and
+0.22 mm (a radius per view; 0.10 mm with the radius given); on RegHEC's real sphere set all agree
 (1.05 mm fit RMS). ``bench/bench_calibrator_targets.py`` prints both comparisons.
 """
 
@@ -23,7 +24,15 @@ from scipy.optimize import least_squares
 from scipy.sparse import csr_matrix
 
 from ..errors import InputMismatch
-from .sphere import DEFAULT_INLIER_M, Sphere, SphereNotFound, find_sphere, refine_sphere, segment_sphere
+from .sphere import (
+    DEFAULT_INLIER_M,
+    Sphere,
+    SphereNotFound,
+    find_sphere,
+    ray_residuals,
+    refine_sphere,
+    segment_sphere,
+)
 
 METHODS = ("joint", "median")
 MAX_POINTS_PER_VIEW = 3000  # the joint fit takes a random subset of each view's inliers beyond this
@@ -75,17 +84,25 @@ def _joint(segments: list[tuple[np.ndarray, np.ndarray, float]], starts: list[Sp
     counts = np.array([len(v) for v in views])
     view_of = np.repeat(np.arange(n), counts)  # (m,) the view of each point
     points = np.concatenate(views)  # (m, 3), each in its own view's camera frame
-    w = 1.0 / np.array([max(s.rms_m, 1e-5) for s in starts])[view_of]  # (m,) whitening
+    ranges = np.linalg.norm(points, axis=1)
+    medians = np.array([np.median(np.linalg.norm(v, axis=1)) for v in views])[view_of]
+    # (m,) whitening: each view's RMS along the rays, the depth noise growing with the square of the range
+    rms = [
+        np.sqrt(np.mean(ray_residuals(v, s.p_cam, s.radius_m)[0] ** 2))
+        for v, s in zip(views, starts, strict=True)
+    ]
+    w = (medians / ranges) ** 2 / np.maximum(rms, 1e-5)[view_of]
     rows = np.repeat(np.arange(len(points)), 4)
     cols = np.c_[3 * view_of[:, None] + np.arange(3), np.full(len(points), 3 * n)].ravel()
 
+    def rays(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:  # residuals (m,), Jacobian rows (m, 4)
+        return ray_residuals(points, x[: 3 * n].reshape(n, 3)[view_of], x[3 * n])
+
     def resid(x: np.ndarray) -> np.ndarray:
-        c = x[: 3 * n].reshape(n, 3)[view_of]
-        return np.asarray(w * (np.linalg.norm(points - c, axis=1) - x[3 * n]))
+        return np.asarray(w * rays(x)[0])
 
     def jac(x: np.ndarray) -> csr_matrix:
-        d = points - x[: 3 * n].reshape(n, 3)[view_of]
-        vals = np.c_[-d / np.linalg.norm(d, axis=1, keepdims=True), -np.ones(len(points))] * w[:, None]
+        vals = rays(x)[1] * w[:, None]
         return csr_matrix((vals.ravel(), (rows, cols)), shape=(len(points), 3 * n + 1))
 
     x0 = np.r_[np.concatenate([s.p_cam for s in starts]), starts[0].radius_m]

@@ -170,3 +170,15 @@ def test_the_command_takes_an_earlier_result(tmp_path: Path, lab_dir: Path) -> N
     )
     assert bad.returncode == 2 and bad.stderr.strip().count("\n") == 0, bad.stderr
     assert "not a calibration result" in bad.stderr
+
+
+def test_an_unused_prior_leaves_the_fit_as_without_one(lab_dir: Path) -> None:
+    # a prior far from the data is not used: the result is the default's, on 5 samples (where the
+    # scale is not tried) as on 11
+    p, T = read_lab(lab_dir / "poses.txt", lab_dir / "tfs.txt")
+    for k in (np.arange(5), np.arange(11)):
+        plain = calibrate(p[k], T[k], leave_one_out=False)
+        far = calibrate(p[k], T[k], leave_one_out=False, depth_scale_prior=(0.6, 0.001))
+        assert "prior is not used" in far.correction_reason, far.correction_reason
+        assert far.correction == plain.correction and np.array_equal(far.T_flange_cam, plain.T_flange_cam)
+        assert np.array_equal(far.covariance, plain.covariance)

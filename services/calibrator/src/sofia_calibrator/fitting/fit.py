@@ -157,6 +157,9 @@ class Problem:
             sel = self._with_prior(cands, dx, ref, p, T, sigma, noise)
             if sel.solution is not ref:
                 return sel
+            if m < cc.MIN_SAMPLES_FOR_SCALE:  # unused: as without a prior, the scale is not tried
+                cands, dx = cands[:1], dx[:1]
+                chosen, reason = cands[0], f"{cands[0].model} (as asked)"
             reason = f"{reason} ({sel.reason})"
         k = cands.index(chosen)
         sol = refine(p, T[:, :3, :3], T[:, :3, 3], sigma, ref.R @ so3.exp(dx[k, :3]), ref.t + dx[k, 3:6],

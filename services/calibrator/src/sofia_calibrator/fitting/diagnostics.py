@@ -76,20 +76,6 @@ def error6(T_est: np.ndarray, T_true: np.ndarray) -> np.ndarray:
     return np.r_[T_est[:3, 3] - T_true[:3, 3], so3.log(T_est[:3, :3] @ T_true[:3, :3].T)]
 
 
-def outlier_ratio(whitened: np.ndarray, reference: np.ndarray, alpha: float = OUTLIER_ALPHA) -> np.ndarray:
-    """How far (n,) whitened residual norms are above the clear-outlier threshold (> 1: outlier).
-
-    The noise scale is estimated robustly from ``reference`` (whitened norms of the samples the
-    fit trusts): median(r^2) / median(chi2_3). A residual is a clear outlier when r^2 / scale^2
-    exceeds the chi2_3 quantile at 1 - alpha / n (a family-wise false-alarm rate of ``alpha``).
-    """
-    from scipy.stats import chi2
-
-    scale2 = max(float(np.median(reference**2)) / float(chi2.ppf(0.5, 3)), 1e-300)
-    limit = float(chi2.ppf(1.0 - alpha / max(len(reference), 1), 3))
-    return np.asarray(whitened**2 / scale2 / limit)
-
-
 def check_motion(T_base_flange: np.ndarray) -> list[str]:
     """Observability of the flange motion; raises DegenerateMotion, or returns warnings.
 

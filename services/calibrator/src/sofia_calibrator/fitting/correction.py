@@ -64,8 +64,9 @@ def message(model: str, beta: np.ndarray, beta_sigma: np.ndarray | None) -> Came
     sig = None if beta_sigma is None else float(beta_sigma[0])
     if not 1.0 + float(beta[0]) > 0.0:
         raise InputMismatch(
-            f"the fitted {model} came out {1.0 + float(beta[0]):.3f}: too few or too similar views to fit a "
-            "scale; calibrate with correction 'auto' or 'rigid', or add views"
+            f"the fitted {model} came out {1.0 + float(beta[0]):.3f}, not a scale: the views do not "
+            "constrain it (too few, too alike, or depths that disagree); calibrate with correction 'rigid', "
+            "or add views"
         )
     return CameraCorrection(model=model, depth_scale=1.0 + float(beta[0]), depth_scale_sigma=sig)  # type: ignore[arg-type]
 

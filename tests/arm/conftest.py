@@ -90,7 +90,12 @@ def arm(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Arm]:
     sim = start_sim()
     log_dir: Path = tmp_path_factory.mktemp("arm")
     env = dict(os.environ, SOFIA_ROBOT=robot_id, PYTHONUNBUFFERED="1")
-    service = Proc(["arm", "serve", "--robot-ip", sim.host, "--max-speed", "0.6"], log_dir / "arm.log", env)
+    # franky-sim simulates an FR3 (its MuJoCo model fr3.xml)
+    service = Proc(
+        ["arm", "serve", "--robot-ip", sim.host, "--model", "fr3", "--max-speed", "0.6"],
+        log_dir / "arm.log",
+        env,
+    )
     try:
         service.wait_for_log("arm service ready", timeout=60)
         keys = Keys(robot_id)

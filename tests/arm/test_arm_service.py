@@ -75,6 +75,11 @@ def test_move_joints_and_pose_reach_targets(arm: Arm) -> None:
     assert_at(arm, T_goal)
     state = arm.latest_state()
     assert state.mode == "idle" and state.last_command == "move_pose" and state.last_result is not None
+    # joint 6 within the FR3's limits (to 4.5169 rad) and beyond the Panda's (3.7525): the robot driven
+    q_fr3 = np.array([0.0, -0.3, 0.0, -2.2, 0.0, 3.9, 0.7854])
+    r = arm.ok(command="move_joints", q=q_fr3.tolist(), speed=0.6)
+    assert r.ok and r.status == "done", r
+    assert np.abs(np.array(r.q) - q_fr3).max() < 0.01
 
 
 def test_refused_targets_do_not_move(arm: Arm) -> None:

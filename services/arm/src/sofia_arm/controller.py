@@ -227,13 +227,13 @@ class Controller:
         """Move to joint positions q (7,) rad. Raises TargetRefused / NotReady before moving."""
         started = time.monotonic()
         robot = self.ready()
-        s = self.link.latest
-        q_goal = self.safety.check_joint_target(q, None if s is None else s.q, f"{command} target")
+        q_goal = self.safety.check_joint_target(q, getattr(self.link.latest, "q", None), f"{command} target")
         f = self.factor(speed)
         ended = self._run(token, robot, franky.JointMotion(q_goal, relative_dynamics_factor=f))
         if ended is not None:
             return self.result(command, ended[0], ended[1], started)
-        return self._settle(token, robot, panda_fk(q_goal), lambda _q: q_goal, f, command, started)
+        T_goal = panda_fk(q_goal, check_limits=False)  # within the configured robot's limits (checked above)
+        return self._settle(token, robot, T_goal, lambda _q: q_goal, f, command, started)
 
     def move_pose(self, token: Token, T_base_flange: np.ndarray, speed: float) -> ArmResult:
         """Move the flange in a straight line to T_base_flange (4, 4), base frame."""

@@ -60,11 +60,6 @@ def length_first(size: np.ndarray, yaw: float) -> tuple[tuple[float, float], flo
     return (float(size[0]), float(size[1])), half_turn(yaw)
 
 
-def _spread(h: np.ndarray) -> float:
-    """Robust standard deviation (1.4826 median absolute deviation) of (n,) heights, metres."""
-    return float(1.4826 * median(np.abs(h - median(h))))
-
-
 def _solid(obj: ObjectPoints, subset: np.ndarray) -> np.ndarray:
     """``subset`` ((n,) bool) without its specks on the pixel grid (mixed pixels): the pieces
     smaller than 10 % of the largest and than 10 pixels."""
@@ -111,8 +106,10 @@ def estimate_object(
     curved, tip = False, None
     yaw, whole = rect.yaw, rect
     cone = fit_cone(b, rect, noise)
-    # a flat top's points lie within the depth noise of its height; a tip's spread over the band
-    flat = top.shape[1] < 3 or _spread(top[2]) < FLAT_K * noise + FLAT_MIN
+    # a flat top's points lie within the depth noise of its height (robust deviation: 1.4826 median
+    # absolute deviation); a tip's spread over the band
+    spread = float(1.4826 * median(np.abs(top[2] - median(top[2])))) if top.shape[1] >= 3 else 0.0
+    flat = spread < FLAT_K * noise + FLAT_MIN
     narrow = np.count_nonzero(inner) < NARROW_TOP * h.size  # a tip, or a top cut short by holes
     seen_cone = None if cone is not None or (flat and not narrow) else fit_cone_apex(b, noise)
     if cone is not None:  # a cone: its apex is the height, its base the full footprint

@@ -23,7 +23,7 @@ from bench_detector_real import CACHE_VERSION, load_case
 from sofia_detector import detect
 from sofia_detector.depth import clean
 from sofia_detector.geometry import points
-from sofia_detector.geometry.grid import max_filter, where
+from sofia_detector.geometry.grid import where
 from sofia_schemas import Board
 
 
@@ -50,26 +50,6 @@ def np_consistent_at(c: np.ndarray, mask: np.ndarray, d2: float, min_neighbours:
     return out
 
 
-def np_bridge(
-    labels: np.ndarray, n: int, todo: np.ndarray, rgb: np.ndarray, tol: float, steps: int
-) -> tuple[np.ndarray, bool]:
-    """``clean._bridge`` in numpy: a 3 x 3 max filter per step, the chroma of the pixels reached."""
-    todo = todo.copy()
-    lr, lc = where(labels)
-    mean = clean.label_means(labels[lr, lc], clean.chroma(rgb[lr, lc]), n)
-    grown, joined = labels.copy(), False
-    for _ in range(steps):
-        around = max_filter(grown, 3)
-        rs, cs = where(todo & (around > 0))
-        if rs.size == 0:
-            break
-        lab = around[rs, cs]
-        ok = clean.colour_distance(clean.chroma(rgb[rs, cs]), mean[lab]) < tol
-        grown[rs[ok], cs[ok]], todo[rs[ok], cs[ok]] = lab[ok], False
-        joined |= bool(ok.any())
-    return grown, joined
-
-
 def same(a: Any, b: Any) -> bool:
     """Whether two kernel results agree (arrays exactly or within 1e-6 relative, tuples item by item)."""
     if isinstance(a, tuple):
@@ -83,7 +63,6 @@ def same(a: Any, b: Any) -> bool:
 KERNELS: dict[str, tuple[Any, str, Callable[..., Any]]] = {
     "points._points_in_frame": (points, "_points_in_frame", np_points_in_frame),
     "clean._consistent_at": (clean, "_consistent_at", np_consistent_at),
-    "clean._bridge": (clean, "_bridge", np_bridge),
 }
 
 
@@ -91,7 +70,7 @@ KERNEL_OF: dict[str, Any] = {name: getattr(mod, attr) for name, (mod, attr, _) i
 
 
 def best_us(f: Callable[..., Any], args: tuple[Any, ...], repeat: int) -> float:
-    """Fastest of ``repeat`` calls of ``f(*args)`` (copies of writeable arrays: the bridge edits)."""
+    """Fastest of ``repeat`` calls of ``f(*args)``."""
     out = []
     for _ in range(repeat):
         a = tuple(x.copy() if isinstance(x, np.ndarray) and x.flags.writeable else x for x in args)

@@ -74,7 +74,7 @@ def test_a_sparse_tip_is_as_high_as_its_highest_part() -> None:
     seen = z > 0.04
     rho, ang, z = rho[seen][:300], ang[seen][:300], z[seen][:300] + rng.normal(0, 0.001, 300)
     b = np.stack([rho * np.cos(ang), rho * np.sin(ang), z]).astype(np.float32)
-    est = estimate_object(ObjectPoints(b), 0.0011, DEFAULT_PARAMS.curvature)
+    est = estimate_object(ObjectPoints(b), 0.0011, DEFAULT_PARAMS)
     assert abs(est.height - height) < 0.006
 
 

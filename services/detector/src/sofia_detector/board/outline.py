@@ -9,6 +9,9 @@ import numpy as np
 
 from ..geometry.rect import min_area_rect
 
+SIDE_BAND = 0.015  # metres from a side within which outline points belong to it
+EDGE_SHARE = 0.3  # share of a side's points dropping outwards above which it is the board's edge
+
 
 @dataclass(frozen=True)
 class Outline:
@@ -44,14 +47,12 @@ def fit_outline(
     max_yaw: float,
     max_rim: float,
     drop_xy: np.ndarray | None = None,
-    side_band: float = 0.015,
-    edge_share: float = 0.3,
 ) -> Outline:
     """The board rectangle from boundary_xy (k, 2), points including its outline (plane frame,
     metres). field_extent: the field grid's size along board x and y. drop_xy: (k, 2) direction
     from each point to what lies below the board beside it, 0 where nothing does; None: all the
-    outline is the board's edge. A side is an edge when ``edge_share`` of the points within
-    ``side_band`` of it drop outwards (within 60 degrees).
+    outline is the board's edge. A side is an edge when :data:`EDGE_SHARE` of the points within
+    :data:`SIDE_BAND` of it drop outwards (within 60 degrees).
 
     Per axis: both sides edges and a size within ``[extent - 1 cm, extent + 2 max_rim]``: their
     midpoint (complete). One side an edge: half the fields and a rim inside it (the rim measured on
@@ -62,8 +63,8 @@ def fit_outline(
     R = rect.R
     xy = np.ascontiguousarray(boundary_xy, dtype=np.float64)
     drops = None if drop_xy is None else np.ascontiguousarray(drop_xy, dtype=np.float64)
-    n_near, n_out = _side_counts(xy, drops, R, side_band)
-    edge = (n_out >= edge_share * np.maximum(n_near, 1)).tolist()
+    n_near, n_out = _side_counts(xy, drops, R, SIDE_BAND)
+    edge = (n_out >= EDGE_SHARE * np.maximum(n_near, 1)).tolist()
     lo, hi, ext = rect.lo.tolist(), rect.hi.tolist(), field_extent
     size = [hi[a] - lo[a] for a in (0, 1)]
     fits = [size[a] <= ext[a] + 2 * max_rim for a in (0, 1)]

@@ -60,11 +60,6 @@ def length_first(size: np.ndarray, yaw: float) -> tuple[tuple[float, float], flo
     return (float(size[0]), float(size[1])), half_turn(yaw)
 
 
-def _spread(h: np.ndarray) -> float:
-    """Robust standard deviation (1.4826 median absolute deviation) of (n,) heights, metres."""
-    return float(1.4826 * median(np.abs(h - median(h))))
-
-
 def _solid(obj: ObjectPoints, subset: np.ndarray) -> np.ndarray:
     """``subset`` ((n,) bool) without its specks on the pixel grid (mixed pixels): the pieces
     smaller than 10 % of the largest and than 10 pixels."""
@@ -79,19 +74,13 @@ def _solid(obj: ObjectPoints, subset: np.ndarray) -> np.ndarray:
     return subset & (sizes[labels[obj.rows, obj.cols]] >= min(max(10.0, 0.1 * largest), largest))  # type: ignore[no-any-return]
 
 
-def estimate_object(
-    obj: ObjectPoints,
-    noise: float,
-    curvature: float,
-    colour_tol: float = 0.0,
-    min_width: float = DetectorParams.min_width,
-) -> ObjectEstimate:
+def estimate_object(obj: ObjectPoints, noise: float, params: DetectorParams) -> ObjectEstimate:
     """Footprint, height and centre of one object (board frame, metres; noise: the depth noise). The
     top fit takes the points in the ellipse inscribed in 70 % of the footprint; the top is a cap when
-    ``d < -curvature`` (1/m) with t < -4, or its heights spread beyond the noise. A cone is centred on
-    its apex. A flat top's footprint: its points within 3 sigma of its height, and (colour_tol > 0)
-    missing depth of its colour (:mod:`.holes`). A top narrower than min_width is a sliver: an
-    upright round side then gives ``whole_xy``, ``whole_size``."""
+    ``d < -params.curvature`` (1/m) with t < -4, or its heights spread beyond the noise. A cone is
+    centred on its apex. A flat top's footprint: its points within 3 sigma of its height, and
+    (``params.colour_tol`` > 0) missing depth of its colour (:mod:`.holes`). A top narrower than
+    ``params.min_width`` is a sliver: an upright round side then gives ``whole_xy``, ``whole_size``."""
     b_all = obj.b
     n = b_all.shape[1]
     b = b_all[:, :: max(1, n // FIT_POINTS)]  # plenty for the fits
@@ -111,8 +100,10 @@ def estimate_object(
     curved, tip = False, None
     yaw, whole = rect.yaw, rect
     cone = fit_cone(b, rect, noise)
-    # a flat top's points lie within the depth noise of its height; a tip's spread over the band
-    flat = top.shape[1] < 3 or _spread(top[2]) < FLAT_K * noise + FLAT_MIN
+    # a flat top's points lie within the depth noise of its height (robust deviation: 1.4826 median
+    # absolute deviation); a tip's spread over the band
+    spread = float(1.4826 * median(np.abs(top[2] - median(top[2])))) if top.shape[1] >= 3 else 0.0
+    flat = spread < FLAT_K * noise + FLAT_MIN
     narrow = np.count_nonzero(inner) < NARROW_TOP * h.size  # a tip, or a top cut short by holes
     seen_cone = None if cone is not None or (flat and not narrow) else fit_cone_apex(b, noise)
     if cone is not None:  # a cone: its apex is the height, its base the full footprint
@@ -120,7 +111,7 @@ def estimate_object(
     elif seen_cone is not None:  # a cone part of whose base is unseen: its apex, its base around it
         curved, height, center_xy = True, seen_cone[1], seen_cone[0]
         size = np.full(2, 2 * seen_cone[2])
-    elif fit is not None and fit[0][3] < -curvature and (fit[0][3] < -4 * fit[1] or not flat):
+    elif fit is not None and fit[0][3] < -params.curvature and (fit[0][3] < -4 * fit[1] or not flat):
         coef = fit[0]
         apex = mean_top - coef[1:3] / (2 * coef[3])
         apex_uv = R.T @ apex
@@ -133,7 +124,7 @@ def estimate_object(
         height = float(median(top[2])) if top.shape[1] else h_hi
         face = _solid(obj, b_all[2] > height - max(3 * noise, 0.004))
         if np.count_nonzero(face) >= 3:
-            unseen = unseen_top(obj, face, colour_tol) if colour_tol > 0 else np.zeros((0, 2))
+            unseen = unseen_top(obj, face, params.colour_tol) if params.colour_tol > 0 else np.zeros((0, 2))
             rect = min_area_rect(np.vstack([obj.boundary_xy(face), unseen]))
             yaw = rect.yaw
         center_xy = rect.center
@@ -144,7 +135,7 @@ def estimate_object(
         if not flat:  # a tip too sparse to fit: the cap's apex, else the highest points
             height = max(tip, h_hi) if tip is not None else h_hi
     whole_xy, whole_size = whole.center, (float(whole.size.max()), float(whole.size.min()))
-    if min(size) < min_width:  # a sliver of a top: the object's side is what is seen of it
+    if min(size) < params.min_width:  # a sliver of a top: the object's side is what is seen of it
         side = round_side(b, noise, h_hi)
         if side is not None:
             whole_xy, whole_size = side[0], (2 * side[1], 2 * side[1])

@@ -21,23 +21,10 @@ SAMPLE = 400  # top pixels used for the pixel-to-top map
 BORDER_PX = 3  # what lies this many pixels around a patch borders it (past the 1-2 px of mixed pixels)
 
 
-def pixel_to_plane(rows: np.ndarray, cols: np.ndarray, xy: np.ndarray) -> np.ndarray | None:
-    """(3, 3) homography from pixels (col, row, 1) (n,) to plane points xy (n, 2), metres, n >= 4, by
-    OpenCV's least-squares ``findHomography`` (in millimetres: in metres it put an edge-cut object's
-    centre 14 mm off on the realistic scenes); None when it finds none."""
-    if rows.size < 4:
-        return None
-    src = np.column_stack([cols, rows]).astype(np.float64)
-    H, _ = cv2.findHomography(src, np.asarray(xy, dtype=np.float64) * 1e3, 0)
-    return None if H is None else np.diag([1e-3, 1e-3, 1.0]) @ H
-
-
-def bordered_patches(
-    grid: np.ndarray, same: np.ndarray, h: np.ndarray, raised: float, lo: float, hi: float, reach: int
-) -> np.ndarray:
+def bordered_patches(grid: np.ndarray, same: np.ndarray, h: np.ndarray, lo: float, hi: float) -> np.ndarray:
     """(h, w) bool: pixels of ``same`` (missing depth of the top's colour) in patches joining the top
-    ``grid`` through ``same``, whose border (within ``reach`` pixels; heights h (h, w) float32, NaN
-    where missing, metres) above ``raised`` is at most :data:`OFF_TOP` off the top (not in ``grid``
+    ``grid`` through ``same``, whose border (within :data:`BORDER_PX`; heights h (h, w) float32, NaN
+    where missing, metres) above :data:`RAISED` is at most :data:`OFF_TOP` off the top (not in ``grid``
     nor within ``[lo, hi]``) and at most :data:`BOARD_SEEN` the board with depth. A pixel within
     reach of two patches counts for the later-numbered one."""
     labels, n_all = label8(grid | same)
@@ -46,13 +33,13 @@ def bordered_patches(
     joined[0] = False
     filled = same & joined[labels]
     parts, n = label8(filled)
-    near = max_filter(parts, 2 * reach + 1)  # the patch a pixel borders
+    near = max_filter(parts, 2 * BORDER_PX + 1)  # the patch a pixel borders
     border = (near > 0) & ~filled
     k, z = near[border], h[border]
     with np.errstate(invalid="ignore"):
-        up = z > raised
+        up = z > RAISED
         off = up & ~grid[border] & ~((lo <= z) & (z <= hi))
-        on_board = np.abs(z) < raised
+        on_board = np.abs(z) < RAISED
 
     def count(sel: np.ndarray) -> np.ndarray:
         return np.bincount(k[sel], minlength=n + 1)
@@ -89,16 +76,19 @@ def unseen_top(obj: ObjectPoints, face: np.ndarray, tol: float) -> np.ndarray:
         return none  # the object stands on its own colour
     face_h = obj.b[2, face]
     lo, mid = float(face_h.min()), float(median(face_h))
-    bordered = bordered_patches(grid, same, h, RAISED, lo, 2 * mid - lo, BORDER_PX)
+    bordered = bordered_patches(grid, same, h, lo, 2 * mid - lo)
     if np.count_nonzero(bordered) < MIN_SHARE * fr.size:
         return none
     hr, hc = where(bordered)
     k = max(1, fr.size // SAMPLE)
     sr, sc = fr[::k], fc[::k]
-    H = pixel_to_plane(sr, sc, obj.window[:2, sr, sc].T.astype(np.float64))
+    # pixels (col, row) to the top's plane by OpenCV's least-squares homography, in millimetres (in
+    # metres it put an edge-cut object's centre 14 mm off on the realistic scenes)
+    xy_mm = obj.window[:2, sr, sc].T.astype(np.float64) * 1e3
+    H, _ = cv2.findHomography(np.column_stack([sc, sr]).astype(np.float64), xy_mm, 0)
     if H is None:
         return none
-    q = H @ np.vstack([hc, hr, np.ones(hr.size)])
+    q = np.diag([1e-3, 1e-3, 1.0]) @ H @ np.vstack([hc, hr, np.ones(hr.size)])
     with np.errstate(divide="ignore", invalid="ignore"):
         out = (q[:2] / q[2]).T
     return out[np.isfinite(out).all(axis=1)]  # type: ignore[no-any-return]

@@ -57,7 +57,7 @@ def measure_objects(
     for obj in found:
         if obj.b.shape[1] < params.min_points:
             continue
-        est = estimate_object(obj, fit.plane.rms, params.curvature, params.colour_tol, params.min_width)
+        est = estimate_object(obj, fit.plane.rms, params)
         if est.height < params.min_object_height:
             continue  # below the height floor
         if est.whole_size[1] < params.min_width:

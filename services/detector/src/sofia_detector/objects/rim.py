@@ -84,13 +84,6 @@ def widest_gap(xy: np.ndarray, center: np.ndarray) -> float:
     return float(np.diff(np.append(ang, ang[0] + 2 * np.pi)).max())
 
 
-def _rect_rms(xy: np.ndarray, rect: Rect) -> float:
-    """Rms distance of xy (k, 2) to the nearest side of ``rect``."""
-    uv = xy @ rect.R  # in the rectangle's axes
-    d = np.minimum(np.abs(uv - rect.lo), np.abs(uv - rect.hi)).min(axis=1)
-    return float(np.sqrt(np.mean(d * d)))
-
-
 def round_top(
     obj: ObjectPoints, face: np.ndarray, top: float, noise: float, rect: Rect
 ) -> tuple[np.ndarray, float] | None:
@@ -110,7 +103,9 @@ def round_top(
     pixel = min(spacing, 0.003)
     if not np.isfinite(r) or r < 0.005 or rms > RMS_SPACINGS * pixel + noise:
         return None
-    if float(rect.size.max()) > 2 * r + 2 * pixel + 0.002 or rms > 0.5 * _rect_rms(xy, rect):
+    uv = xy @ rect.R  # in the rectangle's axes: the distance to its nearest side
+    d = np.minimum(np.abs(uv - rect.lo), np.abs(uv - rect.hi)).min(axis=1)
+    if float(rect.size.max()) > 2 * r + 2 * pixel + 0.002 or rms > 0.5 * float(np.sqrt(np.mean(d * d))):
         return None  # the seen top does not fit in the circle, or it is a rectangle
     if widest_gap(xy, center) > MAX_GAP:
         return None

@@ -44,26 +44,22 @@ def _normalising(p: np.ndarray) -> np.ndarray:
     return T
 
 
-def dlt(xyz: np.ndarray, pix: np.ndarray) -> np.ndarray | None:
+def fit_camera(pix: np.ndarray, xyz: np.ndarray) -> np.ndarray | None:
     """(3, 4) P with ``P [xyz 1]^T ~ [pix 1]^T`` by the normalised direct linear transform (OpenCV
-    fits homographies, not projections); None when the points do not fix it."""
+    fits homographies, not projections) of pix (n, 2) (col, row) and xyz (n, 3) (board frame,
+    metres, not coplanar); None when they do not fix it or it reprojects them worse than
+    :data:`MAX_REPROJECTION`."""
+    if pix.shape[0] < 12 or float(np.std(xyz[:, 2])) < 0.005:
+        return None
     Ts, Td = _normalising(xyz), _normalising(pix)
     X = np.hstack([xyz, np.ones((len(xyz), 1))]) @ Ts.T
     u, v = (np.hstack([pix, np.ones((len(pix), 1))]) @ Td.T)[:, :2].T
     zero = np.zeros_like(X)
     A = np.vstack([np.hstack([X, zero, -u[:, None] * X]), np.hstack([zero, X, -v[:, None] * X])])
     _, s, vt = np.linalg.svd(A, full_matrices=False)
-    return None if s[-2] < 1e-9 * s[0] else np.asarray(np.linalg.inv(Td) @ vt[-1].reshape(3, 4) @ Ts)
-
-
-def fit_camera(pix: np.ndarray, xyz: np.ndarray) -> np.ndarray | None:
-    """:func:`dlt` of pix (n, 2) (col, row) and xyz (n, 3) (board frame, metres, not coplanar); None
-    when it reprojects them worse than :data:`MAX_REPROJECTION`."""
-    if pix.shape[0] < 12 or float(np.std(xyz[:, 2])) < 0.005:
+    if s[-2] < 1e-9 * s[0]:
         return None
-    P = dlt(xyz, pix)
-    if P is None:
-        return None
+    P = np.linalg.inv(Td) @ vt[-1].reshape(3, 4) @ Ts
     q = P @ np.hstack([xyz, np.ones((xyz.shape[0], 1))]).T
     err = np.linalg.norm(q[:2] / q[2] - pix.T, axis=0)
     return P if float(median(err)) < MAX_REPROJECTION else None

@@ -31,18 +31,10 @@ class InView:
     measured: bool = True
 
 
-def seen_from(depth: np.ndarray, rows: slice, stop: int) -> np.ndarray:
-    """The first column with depth (``stop`` when none) in each of ``rows`` of depth (H, W) (NaN
-    where missing) within its first ``stop`` columns: the band the second imager does not see, as
-    wide as the disparity (wider on nearer surfaces)."""
-    seen = np.isfinite(depth[rows, :stop])
-    return np.where(seen.any(axis=1), np.argmax(seen, axis=1), stop)
-
-
 def in_view(obj: ObjectPoints, top: float, tol: float, depth: np.ndarray | None = None) -> InView:
     """Visibility of an object whose top is ``top`` metres above the board. depth: (H, W) the
-    cloud's z (NaN where missing): an object reaching a row's first column with depth
-    (:func:`seen_from`) meets an image edge there."""
+    cloud's z (NaN where missing): an object reaching a row's first column with depth meets an
+    image edge there (the band the second imager does not see, as wide as the disparity)."""
     if obj.rows is None or obj.cols is None or obj.window is None:
         return InView(1.0, (), 0.0, 0.0, 0.0, measured=False)
     (r0, c0), (H, W) = obj.origin, obj.image_shape
@@ -52,7 +44,9 @@ def in_view(obj: ObjectPoints, top: float, tol: float, depth: np.ndarray | None 
     edge = 0
     first = np.full(hi_r - lo_r + 1, -2)  # per row of the object: its first column with depth
     if depth is not None and lo_c + c0 < W // 3:  # the band is narrower than a third of the image
-        first = seen_from(depth, slice(lo_r + r0, hi_r + r0 + 1), min(hi_c + c0 + 1, W // 3))
+        stop = min(hi_c + c0 + 1, W // 3)
+        seen = np.isfinite(depth[lo_r + r0 : hi_r + r0 + 1, :stop])
+        first = np.where(seen.any(axis=1), np.argmax(seen, axis=1), stop)
     if lo_r + r0 == 0 or hi_r + r0 == H - 1 or lo_c + c0 <= first.max() + 1 or hi_c + c0 == W - 1:
         rows, cols = obj.rows + r0, obj.cols + c0
         left = cols <= first[obj.rows - lo_r] + 1

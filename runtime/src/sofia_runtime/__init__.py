@@ -6,10 +6,10 @@ The messages and key expressions that travel on the bus are in :mod:`sofia_schem
 """
 
 from .client import QueryError, ask, query
-from .service import StatusEndpoint, StopFlag
+from .service import StatusEndpoint, StopFlag, serve
 from .zenoh_config import ZenohOptions, add_zenoh_args, open_session, zenoh_config
 
 __all__ = [
     "QueryError", "StatusEndpoint", "StopFlag", "ZenohOptions", "add_zenoh_args", "ask",
-    "open_session", "query", "zenoh_config",
+    "open_session", "query", "serve", "zenoh_config",
 ]  # fmt: skip

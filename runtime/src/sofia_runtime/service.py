@@ -13,10 +13,10 @@ import signal
 import subprocess
 import threading
 from collections import deque
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from types import FrameType
-from typing import Generic, TypeVar
+from typing import Generic, Protocol, TypeVar
 
 import zenoh
 from pydantic import BaseModel, ValidationError
@@ -29,6 +29,7 @@ from .memory import trim_heap
 
 T = TypeVar("T")
 log = logging.getLogger(__name__)
+STATUS_PERIOD_S = 1.0
 
 
 def setup_logging(level: str = "INFO", log_file: str | Path | None = None) -> None:
@@ -211,3 +212,41 @@ class StatusEndpoint:
     def undeclare(self) -> None:
         self._queryable.undeclare()
         self._publisher.undeclare()
+
+
+class Declared(Protocol):
+    def undeclare(self) -> None: ...
+
+
+def serve(
+    stop: StopFlag, status: StatusEndpoint, workers: Sequence[threading.Thread], *, name: str,
+    log: logging.Logger, declared: Sequence[Declared] = (), on_stop: Sequence[Callable[[], object]] = (),
+    also_join: Sequence[threading.Thread] = (), each_period: Sequence[Callable[[], object]] = (),
+    join_timeout_s: float = 5.0, period_s: float = STATUS_PERIOD_S,
+) -> int:  # fmt: skip
+    """The loop a service's ``main`` ends with, inside its session: every ``period_s`` s from the start
+    run ``each_period`` and publish ``status``, until ``stop`` is set (SIGINT/SIGTERM) or one of
+    ``workers`` ends. Then in order: log "<name> stopping", set ``stop``, run ``on_stop`` (wake the
+    workers), join ``workers`` then ``also_join`` (unwatched threads that end on ``stop``, such as
+    :func:`~sofia_runtime.client.fetch_latest`'s, out of the session's calls before it closes), each
+    within ``join_timeout_s`` s, undeclare ``declared`` in order, then ``status``. Returns 0 ("<name>
+    stopped"), or 1 ("<name> worker died, exiting") when a worker ended first: a supervisor restarts it."""
+    while True:
+        for step in [*each_period, status.publish]:
+            step()
+        if stop.wait(period_s) or not all(worker.is_alive() for worker in workers):
+            break
+    crashed = not stop.is_set()
+    stop.set()
+    log.info("%s stopping", name)
+    for step in on_stop:
+        step()
+    for thread in [*workers, *also_join]:
+        thread.join(timeout=join_timeout_s)
+    for d in [*declared, status]:
+        d.undeclare()
+    if crashed:
+        log.error("%s worker died, exiting", name)
+        return 1
+    log.info("%s stopped", name)
+    return 0

@@ -21,12 +21,11 @@ import zenoh
 from sofia_schemas.keys import Keys
 from sofia_schemas.messages import ServiceStatus, now_ns
 
-from ..service import StatusEndpoint, StopFlag
+from ..service import StatusEndpoint, StopFlag, serve
 from ..zenoh_config import LOCAL_PROTOCOL, ZenohOptions, resolve, socket_dir, zenoh_config
 from .bridge import Bridge, BridgeConfig
 
 log = logging.getLogger("sofia.ros2")
-STATUS_PERIOD_S = 1.0
 ROS2_PEER_LISTEN = "tcp/127.0.0.1:0"  # loopback only: the same local users who reach the --ros2 router
 
 
@@ -73,9 +72,6 @@ def main(config: ServiceConfig) -> int:
             bridge.graph.domain, [n.name for n in bridge.nodes], bridge.detect_service,
             config.bridge.camera_topic, config.bridge.tf_input,
         )  # fmt: skip
-        while not stop.wait(STATUS_PERIOD_S):
-            endpoint.publish()
-        log.info("ros2 stopping")
-        endpoint.undeclare()
+        code = serve(stop, endpoint, [], name="ros2", log=log)
         bridge.close()
-    return 0
+    return code

@@ -26,6 +26,7 @@ from typing import Literal
 
 import numpy as np
 import zenoh
+from sofia_runtime import serve
 from sofia_runtime.service import StatusEndpoint, StopFlag, query_message, reply_error, reply_json, run_worker
 from sofia_runtime.zenoh_config import ZenohOptions, zenoh_config
 from sofia_schemas.errors import PayloadError
@@ -187,6 +188,15 @@ class ArmService:
                 reply_json(query, result)
             self.changed.set()
 
+    def publish_states(self, state_pub: zenoh.Publisher, period_s: float, stop: threading.Event) -> None:
+        """Publish the ArmState on ``state_pub`` every ``period_s`` s and as soon as a command
+        changes it (:attr:`changed`), checking the FK at rest each time, until ``stop`` is set."""
+        while not stop.is_set():
+            self.changed.wait(period_s)
+            self.changed.clear()
+            self.check_fk()
+            state_pub.put(self.state().to_json_bytes(), encoding=ENCODING_JSON)
+
     def state(self) -> ArmState:
         c, link = self.controller, self.controller.link
         s = link.latest
@@ -263,9 +273,11 @@ def main(config: ServiceConfig) -> int:
         cleanup.callback(link.close)
         commands = session.declare_queryable(keys.arm_command, service.inbox.put)
         status = StatusEndpoint(session, keys.status("arm"), service.status)
+        period_s = 1.0 / config.arm.state_publish_hz
         workers = [
             run_worker("arm-dispatch", service.dispatch),
             run_worker("arm-commands", service.work_loop),
+            run_worker("arm-state", lambda: service.publish_states(state_pub, period_s, stop.event)),
         ]
         log.info(
             "arm service ready: robot %s, commands on %s, poses on %s",
@@ -273,22 +285,6 @@ def main(config: ServiceConfig) -> int:
             keys.arm_command,
             keys.flange_pose,
         )
-        period = 1.0 / config.arm.state_publish_hz
-        last_status = 0.0
-        while not stop.is_set():
-            service.changed.wait(period)
-            service.changed.clear()
-            service.check_fk()
-            state_pub.put(service.state().to_json_bytes(), encoding=ENCODING_JSON)
-            if time.monotonic() - last_status >= 1.0:
-                status.publish()
-                last_status = time.monotonic()
-        log.info("arm service stopping")
-        commands.undeclare()
-        controller.cancel_current("stopped", "the arm service is stopping")
-        controller.halt()
-        service.inbox.put(None)
-        for worker in workers:
-            worker.join(timeout=10.0)
-        status.undeclare()
-    return 0
+        on_stop = [commands.undeclare, lambda: controller.cancel_current("stopped", "the arm service is stopping"),
+                   controller.halt, lambda: service.inbox.put(None)]  # fmt: skip
+        return serve(stop, status, workers, name="arm service", log=log, on_stop=on_stop, join_timeout_s=10.0)

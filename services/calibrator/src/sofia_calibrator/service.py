@@ -25,6 +25,7 @@ from sofia_runtime.service import (
     reply_error,
     reply_json,
     run_worker,
+    serve,
 )
 from sofia_runtime.zenoh_config import ZenohOptions, zenoh_config
 from sofia_schemas import pointcloud, rosmsg
@@ -53,7 +54,6 @@ OPS = ("result", "add", "remove", "reset", "solve", "save", "samples")
 EVENTS_MAX = 1000  # poses and blobs waiting for the worker
 QUERIES_MAX = 100  # queries waiting for the worker; beyond, they are answered "busy, retry" at once
 CLOUDS_MAX = 8  # camera clouds waiting for blob extraction (a burst of poses; ~40 MB at 640x480)
-STATUS_PERIOD_S = 1.0
 IDLE_WAKE_S = 0.1  # with nothing to do the worker still wakes, to pair blobs whose poses never came
 QUIET_S = 0.05  # samples changed: solve once nothing more has arrived for this long ...
 SOLVE_DELAY_MAX_S = 1.0  # ... or once the first unsolved change is this old
@@ -284,13 +284,6 @@ def main(args: argparse.Namespace) -> int:
         worker = run_worker("calibrator", lambda: svc.run(stop))  # first solves the resumed samples
         log.info("calibrator ready on %s (%d samples in %s)", keys.calibrator, len(store.samples), store.path)
         status = StatusEndpoint(session, keys.status("calibrator"), svc.status)
-        while not stop.wait(STATUS_PERIOD_S) and worker.is_alive():
-            status.publish()
-        crashed = not stop.is_set()  # the worker died: exit non-zero so a supervisor restarts us
-        stop.set()
-        worker.join(timeout=5)
-        for d in [*decls, status]:
-            d.undeclare()
+        code = serve(stop, status, [worker], name="calibrator", log=log, declared=decls)
     store.close()
-    log.info("calibrator %s", "worker died, exiting" if crashed else "stopped")
-    return 1 if crashed else 0
+    return code

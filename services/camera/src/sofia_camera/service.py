@@ -26,7 +26,7 @@ from typing import Any, Literal
 import zenoh
 from sofia_replay.preload import shm_enabled
 from sofia_runtime.client import fetch_latest
-from sofia_runtime.service import StatusEndpoint, StopFlag, run_worker
+from sofia_runtime.service import StatusEndpoint, StopFlag, run_worker, serve
 from sofia_runtime.zenoh_config import zenoh_config
 from sofia_schemas.keys import ENCODING_CDR_CAMERA_INFO, ENCODING_CDR_POINTCLOUD2, Keys
 from sofia_schemas.messages import ServiceStatus, now_ns
@@ -280,13 +280,4 @@ def main(config: ServiceConfig) -> int:
         workers.append(run_worker("camera", lambda: service.run(stop.event)))
         log.info("camera ready: clouds on %s, camera info on %s (%s, filters %s)", keys.camera_points,
                  keys.camera_info, "simulated D435" if config.sim is not None else "RealSense", pipeline.filters.describe())  # fmt: skip
-        while not stop.wait(1.0):
-            status.publish()
-        log.info("camera stopping")
-        for worker in workers:
-            worker.join(timeout=5.0)
-        fetching.join(timeout=5.0)  # out of the session's calls before it closes
-        status.undeclare()
-        for d in declared:
-            d.undeclare()
-    return 0
+        return serve(stop, status, workers, name="camera", log=log, declared=declared, also_join=[fetching])

@@ -16,6 +16,7 @@ from typing import Any
 
 import zenoh
 from sofia_replay.preload import shm_enabled
+from sofia_runtime import serve
 from sofia_runtime.client import fetch_latest
 from sofia_runtime.limits import check_payload, error_text
 from sofia_runtime.service import StatusEndpoint, StopFlag, query_payload, reply_error, reply_json, run_worker
@@ -38,7 +39,6 @@ from .warmup import warm_up
 from .worker import BAD, UNMAPPED, CloudJob, DropLog, WorkQueue
 
 log = logging.getLogger("sofia.detector")
-STATUS_PERIOD_S = 1.0
 
 
 class Detector:
@@ -255,21 +255,13 @@ def main(config: ServiceConfig) -> int:
                 keys.calibration_result, lambda s: service.on_calibration(s, live=True)
             ),
             session.declare_queryable(keys.detect, service.on_query),
-            StatusEndpoint(session, keys.status("detector"), service.status),
         ]
+        status = StatusEndpoint(session, keys.status("detector"), service.status)
         worker = run_worker("detector", service.run)
         fetching = fetch_latest(session, keys.calibration_result, service.on_calibration, stop.event)
         log.info(
             "detector ready: clouds on %s and %s, detections on %s, queries on %s (transform: %s; warmed up in %.0f ms)",
             keys.points, keys.camera_points, keys.detections, keys.detect, service.transform_name, took * 1e3,
         )  # fmt: skip
-        status = declared[-1]
-        while not stop.wait(STATUS_PERIOD_S):
-            status.publish()
-        log.info("detector stopping")
-        service.work.close()
-        worker.join(timeout=5.0)
-        fetching.join(timeout=5.0)  # out of the session's calls before it closes
-        for d in declared:
-            d.undeclare()
-    return 0
+        return serve(stop, status, [worker], name="detector", log=log, declared=declared,
+                     on_stop=[service.work.close], also_join=[fetching])  # fmt: skip

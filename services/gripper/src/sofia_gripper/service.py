@@ -31,6 +31,7 @@ from sofia_runtime.service import (
     reply_error,
     reply_json,
     run_worker,
+    serve,
     stop_child,
 )
 from sofia_runtime.zenoh_config import ZenohOptions, zenoh_config
@@ -185,14 +186,10 @@ def main(config: ServiceConfig) -> int:
         log.info(
             "gripper service ready: commands on %s, state on %s", keys.gripper_command, keys.gripper_state
         )
-        while not stop.wait(1.0):
-            status.publish()
-        log.info("gripper service stopping")
-        commands.undeclare()
-        service.inbox.put(None)  # the dispatcher passes the end on to the command thread
-        gripper.abort.set()  # a motion under way ends now
-        for worker in workers:
-            worker.join(timeout=10.0)
+        # the dispatcher passes the end (None) on to the command thread; a motion under way ends now
+        on_stop = [commands.undeclare, lambda: service.inbox.put(None), gripper.abort.set]
+        code = serve(
+            stop, status, workers, name="gripper service", log=log, on_stop=on_stop, join_timeout_s=10.0
+        )
         gripper.close(torque_off=False)  # keep holding; the bus watchdog stops motion
-        status.undeclare()
-    return 0
+    return code

@@ -37,7 +37,7 @@ import zenoh
 from foxglove.channels import SceneUpdateChannel
 from foxglove.messages import SceneEntityDeletion, SceneEntityDeletionType, SceneUpdate
 from sofia_runtime.client import fetch_latest
-from sofia_runtime.service import StatusEndpoint, StopFlag, run_worker
+from sofia_runtime.service import StatusEndpoint, StopFlag, run_worker, serve
 from sofia_runtime.zenoh_config import ZenohOptions, zenoh_config
 from sofia_schemas import Board
 from sofia_schemas.frames import CAMERA_FRAME
@@ -60,7 +60,6 @@ from .scene import board_entity, calibration_entity, detection_entities, pick_en
 from .subprotocols import SubprotocolFront
 
 log = logging.getLogger("sofia.viz")
-STATUS_PERIOD_S = 1.0
 MAX_OBJECTS = 8  # scene entities object/<i> cleared beyond the detection's objects
 LATCH_DELAY_S = 0.05  # after a subscription, before its latched message is logged again
 
@@ -227,18 +226,8 @@ def main(config: ServiceConfig) -> int:
         log.info(
             "viz ready: Foxglove WebSocket on ws://%s:%d (robot %s)", config.host, front.port, config.robot
         )
-        while True:
-            viz.publish_board()
-            endpoint.publish()
-            if stop.wait(STATUS_PERIOD_S):
-                break
-        log.info("viz stopping")
-        joiners.topics.put(None)
-        replayer.join(timeout=2.0)
-        fetching.join(timeout=5.0)  # out of the session's calls before it closes
-        endpoint.undeclare()
-        for s in subs:
-            s.undeclare()
+        code = serve(stop, endpoint, [replayer], name="viz", log=log, declared=subs, also_join=[fetching],
+                     on_stop=[lambda: joiners.topics.put(None)], each_period=[viz.publish_board])  # fmt: skip
     front.stop()
     server.stop()
-    return 0
+    return code

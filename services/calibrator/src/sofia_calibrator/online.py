@@ -92,17 +92,18 @@ class Calibrator:
         inverted, :mod:`sofia_calibrator.eye_to_hand`)."""
         opts = options or self.options
         p, T, ids = self.store.arrays()
+        samples = self.store.ordered()  # the rows of p and T
         if self.centres is not None:  # the stored centres stay as measured; the solve takes these
-            better = self.centres([s.stamp_ns for s in self.store.ordered()])
+            better = self.centres([s.stamp_ns for s in samples])
             p = (
-                np.array([better.get(s.stamp_ns, p[i]) for i, s in enumerate(self.store.ordered())])
+                np.array([better.get(s.stamp_ns, row) for s, row in zip(samples, p, strict=True)])
                 if better
                 else p
             )
         guess = (
             None if opts.guess is None else make_transform(np.array(opts.guess[:3]), np.array(opts.guess[3:]))
         )
-        conf = np.clip([s.confidence for s in self.store.ordered()], MIN_CONFIDENCE, 1.0)
+        conf = np.clip([s.confidence for s in samples], MIN_CONFIDENCE, 1.0)
         parent = self.parent_frame
         if opts.setup == "eye-to-hand":  # T_base_cam: the base is the parent (unless configured)
             T = flange_base_poses(T)

@@ -25,7 +25,7 @@ from pydantic import BaseModel
 from sofia_runtime import client, zenoh_config
 from sofia_runtime.zenoh_config import open_session
 from sofia_schemas.messages import CalibrationResult, ErrorReply
-from sofia_schemas.transforms import matrix_to_quat_xyzw
+from sofia_schemas.transforms import matrix_to_quat_xyzw, pose_gap
 
 REPO = Path(__file__).resolve().parents[1]
 SOFIA = str(Path(sys.executable).with_name("sofia"))
@@ -69,6 +69,12 @@ def reply_err(reply: zenoh.Reply) -> ErrorReply:
     """An error reply as its :class:`ErrorReply`; fails on an ok reply."""
     assert reply.err is not None, "expected an error reply"
     return ErrorReply.model_validate_json(reply.err.payload.to_bytes())
+
+
+def gap_mm_deg(T_est: np.ndarray, T_true: np.ndarray) -> tuple[float, float]:
+    """(translation mm, rotation deg) between two (4, 4) poses (:func:`pose_gap` in test units)."""
+    dt, dr = pose_gap(T_est, T_true)
+    return 1e3 * dt, float(np.degrees(dr))
 
 
 def calibration_result(T_flange_cam: np.ndarray, stamp_ns: int = 7, **fields: Any) -> CalibrationResult:

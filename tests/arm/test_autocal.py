@@ -11,7 +11,8 @@ from sofia_arm.autocal_io import LocalCalibrator, Progress
 from sofia_arm.autocal_options import to_arm_result
 from sofia_arm.autocal_sim import KinematicArm, SheetEye
 from sofia_calibrator.fitting.diagnostics import check_motion
-from sofia_schemas.transforms import pose_gap
+
+from ..conftest import gap_mm_deg
 
 BLOB = np.array([0.5, 0.05, 0.0005])
 
@@ -45,8 +46,7 @@ def test_autonomous_calibration_reaches_the_truth_within_the_budget(T_fc: np.nda
     out = run.run()
     assert out.result is not None
     T_est = np.array(out.result.matrix)
-    err_m, err_rad = pose_gap(T_est, T_fc)
-    err_mm, err_deg = 1e3 * err_m, float(np.degrees(err_rad))
+    err_mm, err_deg = gap_mm_deg(T_est, T_fc)
     assert err_mm < 1.0 and err_deg < 0.2, (err_mm, err_deg, [p.reason for p in progress.phases])
     assert out.poses <= run.opts.max_poses and "below 1.0 mm" in out.stop_reason
     assert float(run.sigma_mm().max()) < 1.0

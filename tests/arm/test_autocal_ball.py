@@ -10,8 +10,8 @@ from sofia_arm.autocal import AutocalError, AutocalOptions, BallAutocal
 from sofia_arm.autocal_io import LocalCalibrator, Progress
 from sofia_arm.autocal_sim import KinematicArm, TableBallEye
 from sofia_replay.synth.calibration import TABLE_Z
-from sofia_schemas.transforms import pose_gap
 
+from ..conftest import gap_mm_deg
 from .test_autocal import _T
 
 RADIUS = 0.025
@@ -33,8 +33,7 @@ def test_eye_in_hand_autocal_with_a_ball_on_the_table_reaches_the_truth(radius: 
     lines = [p.line() for p in run.progress.phases]
     assert out.result is not None, lines
     T_est = np.array(out.result.matrix)
-    err_m, err_rad = pose_gap(T_est, T_FC)
-    err_mm, err_deg = 1e3 * err_m, float(np.degrees(err_rad))
+    err_mm, err_deg = gap_mm_deg(T_est, T_FC)
     assert err_mm < 1.0 and err_deg < 0.2, (err_mm, err_deg, lines)
     assert 1e3 * np.linalg.norm(np.array(out.result.target_base) - BALL) < 1.0  # the ball's centre
     assert "below 1.0 mm" in out.stop_reason and out.poses <= run.opts.max_poses
@@ -70,8 +69,7 @@ def test_eye_to_hand_without_the_radius_shares_one_across_the_views() -> None:
     lines = [p.line() for p in run.progress.phases]
     assert out.result is not None, lines
     T_est = np.array(out.result.matrix)
-    err_m, err_rad = pose_gap(T_est, DEFAULT_T_BASE_CAM)
-    err_mm, err_deg = 1e3 * err_m, float(np.degrees(err_rad))
+    err_mm, err_deg = gap_mm_deg(T_est, DEFAULT_T_BASE_CAM)
     assert err_mm < 1.0 and err_deg < 0.2, (err_mm, err_deg, lines)
     assert 1e3 * np.linalg.norm(np.array(out.result.target_base) - BALL_FLANGE) < 1.0
     shared = [

@@ -14,9 +14,8 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 from sofia_schemas.sim_world import read_world
-from sofia_schemas.transforms import pose_gap
 
-from ..conftest import SOFIA, Proc
+from ..conftest import SOFIA, Proc, gap_mm_deg
 from .test_pick_place import sim_truth
 
 
@@ -39,8 +38,7 @@ def test_sofia_calibrate_auto_finds_a_sideways_camera(sofia_proc: Callable[..., 
     res = json.loads(out.stdout.strip().splitlines()[-1])
     assert out.returncode == 0, (out.stderr, res["reason"], [p["reason"] for p in res["phases"]])
     T_est = np.array(res["details"]["result"]["matrix"])
-    err_m, err_rad = pose_gap(T_est, T_true)
-    err_mm, err_deg = 1e3 * err_m, float(np.degrees(err_rad))
+    err_mm, err_deg = gap_mm_deg(T_est, T_true)
     assert err_mm < 1.0 and err_deg < 0.2, (err_mm, err_deg)
     assert res["details"]["samples"] <= 20
 
@@ -71,8 +69,7 @@ def test_sofia_calibrate_auto_eye_to_hand_finds_the_fixed_camera(
     assert out.returncode == 0, (out.stderr, res["reason"], [p["reason"] for p in res["phases"]])
     r = res["details"]["result"]
     T_est = np.array(r["matrix"])
-    err_m, err_rad = pose_gap(T_est, T_true)
-    err_mm, err_deg = 1e3 * err_m, float(np.degrees(err_rad))
+    err_mm, err_deg = gap_mm_deg(T_est, T_true)
     assert err_mm < 1.0 and err_deg < 0.2, (err_mm, err_deg, [p["reason"] for p in res["phases"]])
     assert 1e3 * np.linalg.norm(np.array(r["target_base"]) - [0.015, -0.01, 0.11]) < 1.0
     assert r["parent_frame"] == "panda_link0" and res["details"]["samples"] <= 20
@@ -100,8 +97,7 @@ def test_sofia_calibrate_auto_with_a_ball_on_the_table(
     assert out.returncode == 0, (out.stderr, res["reason"], reasons)
     r = res["details"]["result"]
     T_est = np.array(r["matrix"])
-    err_m, err_rad = pose_gap(T_est, T_true)
-    err_mm, err_deg = 1e3 * err_m, float(np.degrees(err_rad))
+    err_mm, err_deg = gap_mm_deg(T_est, T_true)
     assert err_mm < 1.0 and err_deg < 0.2, (err_mm, err_deg, reasons)
     assert 1e3 * np.linalg.norm(np.array(r["target_base"]) - ball) < 1.0
     assert any("shared by" in s for s in reasons) and res["details"]["samples"] <= 20

@@ -13,7 +13,9 @@ from sofia_arm.autocal_sim import BallEye, KinematicArm
 from sofia_arm.poses import Reach, in_image
 from sofia_camera.sim_fixed import DEFAULT_T_BASE_CAM
 from sofia_replay.synth.camera import look_at
-from sofia_schemas.transforms import apply, invert, pose_gap, rotation_angle
+from sofia_schemas.transforms import apply, invert, rotation_angle
+
+from ..conftest import gap_mm_deg
 
 # a mount other than the default: left of the robot, higher, looking down at the workspace
 T_BASE_CAM = look_at(np.array([0.55, 0.75, 0.8]), np.array([0.35, 0.0, 0.45]), np.array([-1.0, 0.2, 0.0]))
@@ -35,8 +37,7 @@ def test_eye_to_hand_autocal_finds_the_fixed_camera_and_the_ball(T_base_cam: np.
     out = run.run()
     assert out.result is not None, [p.line() for p in run.progress.phases]
     T_est = np.array(out.result.matrix)
-    err_m, err_rad = pose_gap(T_est, T_base_cam)
-    err_mm, err_deg = 1e3 * err_m, float(np.degrees(err_rad))
+    err_mm, err_deg = gap_mm_deg(T_est, T_base_cam)
     assert err_mm < 1.0 and err_deg < 0.2, (err_mm, err_deg, [p.line() for p in run.progress.phases])
     assert 1e3 * np.linalg.norm(np.array(out.result.target_base) - BALL_FLANGE) < 1.0
     assert out.result.parent_frame == "panda_link0"  # T_base_cam, not T_flange_cam

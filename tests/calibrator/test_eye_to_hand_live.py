@@ -18,9 +18,9 @@ from sofia_schemas.keys import Keys
 from sofia_schemas.messages import FlangePose
 from sofia_schemas.pointcloud import encode_points
 from sofia_schemas.rosmsg import encode_flange_pose
-from sofia_schemas.transforms import apply, invert, pose_gap
+from sofia_schemas.transforms import apply, invert
 
-from ..conftest import query_json
+from ..conftest import gap_mm_deg, query_json
 from .test_service import PERIOD_NS, T0_NS, wait_until_served
 
 BALL_FLANGE = (0.01, 0.02, 0.1)
@@ -84,7 +84,6 @@ def test_the_live_calibrator_solves_eye_to_hand_from_ball_clouds(
     ok, body = query_json(session, keys.calibrator_op("result"))
     assert ok and body["parent_frame"] == "panda_link0", body
     T_est = np.array(body["matrix"])
-    err_m, err_rad = pose_gap(T_est, DEFAULT_T_BASE_CAM)
-    err_mm, err_deg = 1e3 * err_m, float(np.degrees(err_rad))
+    err_mm, err_deg = gap_mm_deg(T_est, DEFAULT_T_BASE_CAM)
     assert err_mm < 1.0 and err_deg < 0.2, (err_mm, err_deg)
     assert 1e3 * np.linalg.norm(np.array(body["target_base"]) - BALL_FLANGE) < 1.0

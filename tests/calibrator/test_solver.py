@@ -9,13 +9,8 @@ from scipy.spatial.transform import Rotation
 from sofia_calibrator import calibrate, solve
 from sofia_calibrator.fitting.simulate import make_problem
 from sofia_calibrator.fitting.so3 import exp, hat, project
-from sofia_schemas.transforms import pose_gap
 
-
-def _errors(T_est: np.ndarray, T_true: np.ndarray) -> tuple[float, float]:
-    """(translation error mm, rotation error deg)."""
-    dt, dr = pose_gap(T_est, T_true)
-    return 1e3 * dt, float(np.degrees(dr))
+from ..conftest import gap_mm_deg
 
 
 @settings(max_examples=40, deadline=None)
@@ -23,7 +18,7 @@ def _errors(T_est: np.ndarray, T_true: np.ndarray) -> tuple[float, float]:
 def test_recovers_known_transform_from_no_guess(seed: int, n: int) -> None:
     pr = make_problem(n, np.random.default_rng(seed))
     sol = solve(pr.p_cam, pr.T_base_flange, pr.sigma)
-    dt, dr = _errors(sol.T_flange_cam, pr.T_flange_cam)
+    dt, dr = gap_mm_deg(sol.T_flange_cam, pr.T_flange_cam)
     assert dt < 15.0 and dr < 2.0, (dt, dr)
     # the optimum from no guess is the one reached from the truth
     from_truth = solve(pr.p_cam, pr.T_base_flange, pr.sigma, T_flange_cam_guess=pr.T_flange_cam)

@@ -45,7 +45,7 @@ def test_a_prior_from_the_other_lab_samples_helps_a_small_set_predict_its_own(la
                 out += _held_out_mm(
                     calibrate(p[kk], T[kk], leave_one_out=False, **kw), p[k[i] : k[i] + 1], T[k[i]]
                 )  # type: ignore[arg-type]
-    assert _rms(prior) < 0.7 * _rms(auto), (_rms(prior), _rms(auto))  # measured 3.4 vs 6.0 mm
+    assert _rms(prior) < 0.7 * _rms(auto), (_rms(prior), _rms(auto))  # measured 4.05 vs 5.97 mm
 
 
 def test_the_full_sets_scale_helps_every_small_subset(lab_dir: Path) -> None:

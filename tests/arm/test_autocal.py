@@ -10,7 +10,12 @@ from sofia_arm.autocal import Autocal, AutocalError, AutocalOptions
 from sofia_arm.autocal_io import LocalCalibrator, Progress
 from sofia_arm.autocal_options import to_arm_result
 from sofia_arm.autocal_sim import KinematicArm, SheetEye
+from sofia_arm.config import HOME_Q, ArmConfig
+from sofia_arm.poses import Reach
+from sofia_arm.safety import Safety
 from sofia_calibrator.fitting.diagnostics import check_motion
+from sofia_replay.synth.scene import DEFAULT_T_FLANGE_CAM
+from sofia_schemas.kinematics import panda_fk
 
 from ..conftest import gap_mm_deg
 
@@ -90,3 +95,27 @@ def test_no_blob_in_view_fails_with_the_reason() -> None:
     run = Autocal(arm, eye, LocalCalibrator(), AutocalOptions(), Progress(None, None))
     with pytest.raises(AutocalError, match="blob was not seen around the start pose"):
         run.run()
+
+
+def test_views_whose_joint_path_takes_the_fingers_below_the_table_are_not_chosen() -> None:
+    """The demo's cell: an FR3 with the fingers, the table at z = 0, the simulated camera's mount and
+    blob. The arm refuses a joint move whose path takes a fingertip below the table (before it
+    moves); the planner skips such views, so no visit is refused (before, seed 1 lost 2 visits), and
+    the way back to the start goes around such a path (before, the arm stayed at the last view)."""
+    reach = Safety(ArmConfig(model="fr3")).planner_reach(Reach())
+    arm = KinematicArm(np.array(HOME_Q), reach=reach)
+    progress = Progress(None, None)
+    eye = SheetEye(arm, DEFAULT_T_FLANGE_CAM, np.array([0.45, 0.25, -0.0495]), seed=1)
+    run = Autocal(arm, eye, LocalCalibrator(), AutocalOptions(), progress, reach)
+    out = run.run()
+    assert [(p.name, p.reason) for p in progress.phases if p.status == "failed"] == []
+    assert out.result is not None and "below 1.0 mm" in out.stop_reason
+    err_mm, err_deg = gap_mm_deg(np.array(out.result.matrix), DEFAULT_T_FLANGE_CAM)
+    assert err_mm < 1.0 and err_deg < 0.2, (err_mm, err_deg)
+    # back at the start, around what the tool's path rule refuses: the direct way back from the
+    # last view of this run (both ends above the table) takes the fingers below it
+    np.testing.assert_allclose(arm.q(), HOME_Q)
+    q_last = np.array([-0.717, 1.172, 1.528, -2.818, 0.869, 4.414, 0.231])
+    assert reach.tool_clear(panda_fk(q_last, check_limits=False)).all()
+    assert not reach.path_clear(q_last, np.array(HOME_Q))
+    assert not KinematicArm(q_last, reach=reach).move_joints(np.array(HOME_Q), 0.1).ok

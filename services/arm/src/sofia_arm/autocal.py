@@ -91,9 +91,10 @@ class Autocal(Looker):
             d = np.linalg.norm(cands[:, None, :3, 3] - np.array(tried)[None, :, :3, 3], axis=2).min(axis=1)
             cands = cands[d > 0.01]
         ranked = plan.rank_candidates(self.information(), self.model_poses(cands), self.T_fc, self.p_base)
+        q_now = self.arm.q()  # a joint path taking the tool below the surface is refused: skipped
         for i in ranked.order[:25]:
-            ik = solve_ik(cands[i], self.arm.q(), self.reach, n_random_seeds=2)
-            if ik.ok:
+            ik = solve_ik(cands[i], q_now, self.reach, n_random_seeds=2)
+            if ik.ok and self.reach.path_clear(q_now, ik.q):
                 return np.asarray(cands[i])
         return None
 
@@ -202,7 +203,7 @@ class Autocal(Looker):
                 stop = f"translation 1-sigma below {self.opts.target_sigma_mm} mm"
                 break
         if self.opts.return_to_start:
-            self.arm.move_joints(q_start, self.opts.speed)
+            self.go_back(q_start)
         log.info("autonomous calibration: %d samples, %d visits, %.1f s: %s", len(self.samples_T), visits,
                  time.monotonic() - t0, stop)  # fmt: skip
         sigma = self.sigma_mm() if self.result is not None else None
@@ -252,9 +253,7 @@ class FixedAutocal(BallAutocal):
             return
         ok, text = self.take("find ball")
         if not ok:
-            raise AutocalError(
-                "find ball", f"the fixed camera does not see the ball at the start pose ({text})"
-            )
+            raise AutocalError("find ball", f"the fixed camera does not see the ball at the start pose ({text})")  # fmt: skip
         self.progress.add("find ball", "done", text)
         for name, T in fixed.start_moves(T_start):
             if self._go(T, name):

@@ -56,11 +56,18 @@ class Looker:
         self.p_base = None if opts.blob is None else np.array(opts.blob, dtype=np.float64)
         self.sightings: list[tuple[np.ndarray, np.ndarray]] = []  # (T_base_flange, p_cam) while orienting
         self.table_z: list[float] = []  # rough table heights (base frame, m) seen while orienting
+        self.visited_q: list[np.ndarray] = []  # (7,) joints reached by each move, in order
 
     def _go(self, T_base_flange: np.ndarray, step: str) -> bool:
-        ik = solve_ik(T_base_flange, self.arm.q(), self.reach)
+        q_now = self.arm.q()
+        ik = solve_ik(T_base_flange, q_now, self.reach)
         if not ik.ok:
             log.info("%s: skipped, %s", step, ik.reason)
+            return False
+        if not self.reach.path_clear(q_now, ik.q):
+            log.info(
+                "%s: skipped, the tool would pass below %.4f m on the way", step, self.reach.tool_lowest_z
+            )
             return False
         res = self.arm.move_joints(ik.q, self.opts.speed)
         if not res.ok and res.status != "failed":  # stopped, preempted, timed out: give up
@@ -72,7 +79,22 @@ class Looker:
             if dt > NEAR_M or dr > np.radians(NEAR_DEG):
                 log.info("%s: skipped, move failed: %s", step, res.reason)
                 return False
+        self.visited_q.append(self.arm.q())
         return True
+
+    def go_back(self, q_start: np.ndarray) -> None:
+        """Back to the joints ``q_start`` (7,). Where the joint path from here would take the tool
+        below the surface, back along the joints visited, shortcut to the earliest whose path is
+        clear (each step was clear on the way out, so a way back always exists)."""
+        way = [np.asarray(q_start, dtype=np.float64), *self.visited_q]
+        while way:
+            q_now = self.arm.q()
+            i = next((k for k, q in enumerate(way) if self.reach.path_clear(q_now, q)), len(way) - 1)
+            res = self.arm.move_joints(way[i], self.opts.speed)
+            if not res.ok:
+                log.warning("back to the start: stopped on the way (%s)", res.reason)
+                return
+            del way[i:]
 
     def _look(self, step: str) -> tuple[np.ndarray, Frame]:
         """(T_base_flange, frame): the next frame stamped after the arm came to rest, taken again

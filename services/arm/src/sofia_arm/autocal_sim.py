@@ -18,7 +18,7 @@ from .poses import Q_HOME, Reach
 
 class KinematicArm:
     """An :class:`~sofia_arm.motion.ArmMotion` whose moves take no time; refuses joints outside
-    ``reach``. ``clock_ns`` advances 1 s per move (the stamp of the state after it)."""
+    ``reach`` and, as the service does, a joint path taking ``reach``'s tool below its surface. ``clock_ns`` advances 1 s per move (the stamp of the state after it)."""
 
     def __init__(self, q: np.ndarray = Q_HOME, reach: Reach | None = None) -> None:
         self._q = np.array(q, dtype=np.float64)
@@ -34,8 +34,10 @@ class KinematicArm:
         q = np.asarray(q_rad, dtype=np.float64)
         if np.any(q < self.reach.q_lo - 1e-9) or np.any(q > self.reach.q_hi + 1e-9):
             return self._result(False, f"joints {np.round(q, 3).tolist()} outside the margins")
-        if not self.reach.in_box(panda_fk(q)[:3, 3])[0]:
+        if not self.reach.in_box(panda_fk(q, check_limits=False)[:3, 3])[0]:
             return self._result(False, "flange outside the workspace box")
+        if not self.reach.path_clear(self._q, q):
+            return self._result(False, "the tool would pass below the surface on the way")
         self._q = q
         self.moves += 1
         self.clock_ns += 1_000_000_000
@@ -48,7 +50,7 @@ class KinematicArm:
         return self.move_joints(ik.q, speed) if ik.ok else self._result(False, ik.reason)
 
     def T_base_flange(self) -> np.ndarray:
-        return np.asarray(panda_fk(self._q))
+        return np.asarray(panda_fk(self._q, check_limits=False))
 
     def q(self) -> np.ndarray:
         return self._q.copy()

@@ -13,6 +13,8 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 from sofia_schemas.kinematics import RobotModel, joint_limits, panda_fk
 
+from .tool import joint_path
+
 Q_HOME = np.array([0.0, -np.pi / 4, 0.0, -3 * np.pi / 4, 0.0, np.pi / 2, np.pi / 4])
 IK_POS_TOL_M = 1e-5
 IK_ROT_TOL_RAD = 1e-4
@@ -57,6 +59,15 @@ class Reach:
         pts = np.asarray(self.tool_points_flange)
         z = np.einsum("nj,kj->nk", T[:, 2, :3], pts) + T[:, 2, 3:4]  # (n, k) heights of the tool's points
         return np.asarray(z.min(axis=1) >= self.tool_lowest_z)
+
+    def path_clear(self, q_from: np.ndarray, q_to: np.ndarray) -> bool:
+        """True when the tool stays at or above ``tool_lowest_z`` all along the joint motion from
+        ``q_from`` to ``q_to`` (7,) rad: the arm service's check before a joint move
+        (:meth:`sofia_arm.safety.Safety.check_joint_target`), for a planner to skip what it refuses."""
+        if not self.tool_points_flange:
+            return True
+        q0, q1 = (np.asarray(q, dtype=np.float64) for q in (q_from, q_to))
+        return bool(self.tool_clear(joint_path(q0, q1)).all())
 
 
 @dataclass

@@ -37,7 +37,9 @@ import json
 import logging
 import os
 import secrets
+import subprocess
 import tempfile
+import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -103,6 +105,23 @@ def local_peers(own: str | None, env: dict[str, str] | None = None) -> list[str]
     socks = sorted(directory.glob("*-*.sock"), key=lambda p: p.stat().st_mtime if p.exists() else 0.0)
     endpoints = [f"{LOCAL_PROTOCOL}/{p}" for p in socks]
     return [e for e in endpoints if e != own]
+
+
+def wait_for_socket(
+    proc: subprocess.Popen[bytes], timeout_s: float, env: dict[str, str] | None = None
+) -> bool:
+    """Wait until the process ``proc`` listens on its local socket (``<pid>-*.sock`` in
+    :func:`socket_dir`): True once it does, and at once when sessions here do not use local sockets
+    (a config file or connect endpoints); False after ``timeout_s`` or when the process has ended."""
+    settings = resolve(None, env)
+    if settings["config_file"] or settings["connect"]:
+        return True
+    directory, deadline = socket_dir(env), time.monotonic() + timeout_s
+    while not any(directory.glob(f"{proc.pid}-*.sock")):
+        if time.monotonic() > deadline or proc.poll() is not None:
+            return False
+        time.sleep(0.05)
+    return True
 
 
 def _protocol(endpoint: str) -> str:

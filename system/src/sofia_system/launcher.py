@@ -30,6 +30,7 @@ from sofia_runtime.zenoh_config import (
     ROS2_ROUTER_LISTEN,
     ZenohOptions,
     add_zenoh_args,
+    wait_for_socket,
     zenoh_config,
 )
 from sofia_schemas.board import BOARD_HELP, default_board_path
@@ -39,6 +40,7 @@ from sofia_schemas.messages import ServiceStatus
 log = logging.getLogger("sofia.up")
 GRACE_S = 8.0
 MAX_BACKOFF_S = 10.0
+ROUTER_WAIT_S = 30.0
 
 
 def sofia_executable() -> list[str]:
@@ -93,8 +95,12 @@ class Launcher:
         log.info("started %-10s pid %d: %s (log %s)", m.spec.name, m.popen.pid, " ".join(m.spec.args), path)
 
     def start(self) -> None:
-        for m in self.procs.values():
+        """The router first, the others once it listens: a session dials the local sockets there as
+        it opens, so one opened before the router's socket is there would never reach the router."""
+        for m in sorted(self.procs.values(), key=lambda m: m.spec.name != "router"):
             self._start(m)
+            if m.spec.name == "router" and m.popen and not wait_for_socket(m.popen, ROUTER_WAIT_S, self.env):
+                log.warning("no router socket after %.0f s: %s", ROUTER_WAIT_S, self.last_line("router"))
 
     def poll(self) -> None:
         """Restart processes that exited (with back-off)."""
@@ -142,14 +148,12 @@ class Launcher:
                 m.state = "running"
                 continue
             try:
-                state: str = ask(session, keys.status(m.spec.status), ServiceStatus, timeout=timeout).state
+                m.state = ask(session, keys.status(m.spec.status), ServiceStatus, timeout=timeout).state
             except QueryError:
-                state = "no status"
+                m.state = "no status"
             except ValueError:
-                state = "bad status"
-            if state == "ok":
-                m.backoff = 1.0
-            m.state = state
+                m.state = "bad status"
+            m.backoff = 1.0 if m.state == "ok" else m.backoff
         return {name: m.state for name, m in self.procs.items()}
 
     def rows(self) -> list[dict[str, Any]]:
@@ -194,9 +198,7 @@ def all_ready(states: dict[str, str]) -> bool:
 def health_table(rows: list[dict[str, Any]]) -> str:
     """The health table ``sofia up`` prints: service, pid, state, restarts."""
     lines = [f"{'service':<12}{'pid':>8}  {'state':<12}{'restarts':>8}"]
-    for r in rows:
-        pid = "-" if r["pid"] is None else str(r["pid"])
-        lines.append(f"{r['service']:<12}{pid:>8}  {r['state']:<12}{r['restarts']:>8}")
+    lines += [f"{r['service']:<12}{r['pid'] or '-':>8}  {r['state']:<12}{r['restarts']:>8}" for r in rows]
     return "\n".join(lines)
 
 

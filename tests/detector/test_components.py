@@ -9,7 +9,6 @@ from scipy import ndimage
 from sofia_detector.board.plane import fit_plane
 from sofia_detector.geometry.grid import (
     boundary_points,
-    fill_holes,
     grid_boundary,
     grow,
     label8,
@@ -62,7 +61,7 @@ def test_label8_joins_a_u_shape_met_from_both_arms() -> None:
     assert n == 1 and set(np.unique(labels[u])) == {1}
 
 
-def test_filters_and_fill_holes_are_scipys() -> None:
+def test_filters_are_scipys() -> None:
     for mask in _masks(1, 300):
         labels, _ = ndimage.label(mask, structure=EIGHT)
         for size in (3, 7):
@@ -70,7 +69,6 @@ def test_filters_and_fill_holes_are_scipys() -> None:
             as_bytes = mask.view(np.uint8)  # the image border neither grows nor erodes a mask
             assert np.array_equal(grow(mask, size), ndimage.maximum_filter(as_bytes, size=size).view(bool))
             assert np.array_equal(shrink(mask, size), ndimage.minimum_filter(as_bytes, size=size).view(bool))
-        assert np.array_equal(fill_holes(mask), ndimage.binary_fill_holes(mask))
 
 
 def test_where_is_nonzero_in_row_major_order() -> None:

@@ -220,7 +220,7 @@ class Detector:
         with self._lock:
             w, d = self.work, self.drops
             counters = dict(self.counters, received=w.received, dropped=w.dropped, busy_queries=w.busy,
-                            no_transform=d.count(UNMAPPED), bad_clouds=d.count(BAD),
+                            no_transform=d.counts[UNMAPPED], bad_clouds=d.counts[BAD],
                             picks=self.picks.published, picks_withheld=self.picks.withheld,
                             shm_read=self.shared.read, shm_copied=self.shared.copied,
                             **self.stamps.counters)  # fmt: skip

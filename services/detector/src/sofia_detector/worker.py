@@ -132,14 +132,14 @@ class WorkQueue(Generic[Q]):
     @property
     def dropped(self) -> int:
         """Clouds dropped to make room for newer ones."""
-        return self.drops.count(STALE)
+        return self.drops.counts[STALE]
 
     def __len__(self) -> int:
         return len(self._clouds)
 
 
 class DropLog:
-    """Input the service dropped, per reason: total counts and the last time and message."""
+    """Input the service dropped, per reason: ``counts`` so far and the last time and message."""
 
     def __init__(self, window_s: float = DEGRADED_WINDOW_S) -> None:
         self.window_s = window_s
@@ -151,10 +151,6 @@ class DropLog:
         with self._lock:
             self.counts[reason] += 1
             self._last[reason] = (time.monotonic(), message)
-
-    def count(self, reason: str) -> int:
-        """Inputs dropped for ``reason`` so far."""
-        return self.counts[reason]
 
     def state(self) -> tuple[str, str]:
         """``("degraded", what was dropped and why)`` while drops are recent, else ``("ok", "")``."""

@@ -16,13 +16,6 @@ class PlaneFit:
     rms: float
     n_inliers: int
 
-    @property
-    def normal_cfg(self) -> tuple[float, float, float]:
-        """Unit normal (x, y, z), configured board frame, pointing up."""
-        _, b, c = self.coef
-        n = math.sqrt(b * b + c * c + 1.0)
-        return -b / n, -c / n, 1.0 / n
-
 
 def fit_plane(
     x: np.ndarray, y: np.ndarray, z: np.ndarray, thresholds: tuple[float, ...], min_points: int
@@ -52,7 +45,9 @@ def fit_plane(
 def T_cfg_plane(fit: PlaneFit) -> np.ndarray:
     """(4, 4) pose of the plane frame in the configured board frame: z along the normal, x along
     the configured x projected onto the plane (scalars: numpy's overhead dominates on 3-vectors)."""
-    zx, zy, zz = fit.normal_cfg
+    _, b, c = fit.coef
+    n = math.sqrt(b * b + c * c + 1.0)
+    zx, zy, zz = -b / n, -c / n, 1.0 / n  # the unit normal, pointing up
     xx, xy, xz = 1.0 - zx * zx, -zx * zy, -zx * zz  # (1, 0, 0) without its normal component
     k = math.sqrt(xx * xx + xy * xy + xz * xz)
     xx, xy, xz = xx / k, xy / k, xz / k

@@ -53,9 +53,9 @@ def pixel_spacing(m: np.ndarray, stride: int) -> float:
     return float(median(d)) / stride if d.size else 0.0012
 
 
-def chroma(rgb: np.ndarray) -> np.ndarray:
-    """(..., 4) float32 shading-invariant colour: chromaticity (r, g, b) / sum and log brightness."""
-    x = rgb.astype(np.float32) + 8.0
+def chroma(rgb: np.ndarray, dtype: type = np.float32) -> np.ndarray:
+    """(..., 4) shading-invariant colour of ``dtype``: chromaticity (r, g, b) / sum and log brightness."""
+    x = rgb.astype(dtype) + 8.0
     s = x.sum(axis=-1, keepdims=True)
     return np.concatenate([3.0 * x / s, 0.5 * np.log(s)], axis=-1)
 
@@ -117,26 +117,16 @@ def bridge(
     if rgb is None or n < 2 or not invalid.any():
         return labels, n
     on = labels > 0
-    mean = label_means(labels[on], _chroma64(rgb[on]), n)  # each component's mean chroma
+    mean = label_means(labels[on], chroma(rgb[on], np.float64), n)  # each component's mean chroma
     rs, cs = where(invalid & grow(on, 2 * steps + 1))  # the missing pixels growth can reach
-    feats, waiting = _chroma64(rgb[rs, cs]), np.ones(rs.size, dtype=bool)
+    feats, waiting = chroma(rgb[rs, cs], np.float64), np.ones(rs.size, dtype=bool)
     grown, joined = labels.copy(), False
     for _ in range(steps):  # a waiting pixel joins the largest label among its 8 neighbours, if near
         lab = np.where(waiting, max_filter(grown, 3)[rs, cs], 0)
         if not (lab > 0).any():
             break
-        d = feats - mean[lab]
-        ok = (lab > 0) & (
-            np.sqrt(d[:, 0] * d[:, 0] + d[:, 1] * d[:, 1] + d[:, 2] * d[:, 2] + d[:, 3] * d[:, 3]) < tol
-        )
+        ok = (lab > 0) & (colour_distance(feats, mean[lab]) < tol)
         grown[rs[ok], cs[ok]] = lab[ok]
         waiting &= ~ok
         joined |= bool(ok.any())
     return label8(grown > 0) if joined else (labels, n)
-
-
-def _chroma64(px: np.ndarray) -> np.ndarray:
-    """(n, 4) float64 :func:`chroma` of colours px (n, 3) uint8 (the bridge's distances in float64)."""
-    x = px.astype(np.float64) + 8.0
-    s = x[:, 0] + x[:, 1] + x[:, 2]
-    return np.column_stack([3.0 * x / s[:, None], 0.5 * np.log(s)])

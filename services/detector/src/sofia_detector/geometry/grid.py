@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import cv2
 import numpy as np
-from scipy import ndimage
 
 cv2.setNumThreads(1)
 
@@ -59,11 +58,6 @@ def shrink(mask: np.ndarray, size: int) -> np.ndarray:
     return cv2.erode(_u8(mask), _square(size)).view(np.bool_)  # type: ignore[no-any-return]
 
 
-def fill_holes(mask: np.ndarray) -> np.ndarray:
-    """``mask`` (h, w) bool with its holes (background not 4-connected to the border) filled."""
-    return ndimage.binary_fill_holes(mask)  # type: ignore[no-any-return]
-
-
 def grid_boundary(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(rows (k,), cols (k,)) of the first and last True cell of every non-empty row, then of every
     non-empty column of ``mask`` (h, w): every vertex of its convex hull is among them."""
@@ -92,9 +86,3 @@ def boundary_points(
 def where(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``np.nonzero(mask)`` of a 2-D mask, several times faster: (rows, cols) (n,) intp."""
     return divmod(np.flatnonzero(mask), mask.shape[1])  # type: ignore[no-any-return]
-
-
-def masked_points(c: np.ndarray, mask: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """``(c[:, rows, cols], rows, cols)``, (3, n), (n,), (n,), for ``rows, cols = where(mask)``."""
-    rows, cols = where(mask)
-    return c[:, rows, cols], rows, cols

@@ -3,8 +3,7 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
-from functools import cached_property
+from dataclasses import dataclass, field
 
 import cv2
 import numpy as np
@@ -14,32 +13,23 @@ QUARTER = math.pi / 2
 
 @dataclass(frozen=True)
 class Rect:
-    """Rectangle: ``yaw`` of its first axis; ``lo``, ``hi`` (2,) bounds along its two axes."""
+    """Rectangle: ``yaw`` of its first axis; ``lo``, ``hi`` (2,) bounds along its two axes. Derived,
+    read-only (shared by whoever reads them): ``R`` (2, 2) rotation whose columns are its axes,
+    ``center`` (2,) in the frame of the points, ``size`` (2,) extent along its axes."""
 
     yaw: float
     lo: np.ndarray
     hi: np.ndarray
+    R: np.ndarray = field(init=False)
+    center: np.ndarray = field(init=False)
+    size: np.ndarray = field(init=False)
 
-    @cached_property
-    def R(self) -> np.ndarray:
-        """(2, 2) rotation whose columns are the rectangle axes (cached, as the centre and size)."""
+    def __post_init__(self) -> None:
         c, s = math.cos(self.yaw), math.sin(self.yaw)
-        return _read_only(np.array([[c, -s], [s, c]]))
-
-    @cached_property
-    def center(self) -> np.ndarray:
-        """(2,) centre in the frame of the points."""
-        return _read_only(self.R @ ((self.lo + self.hi) / 2))
-
-    @cached_property
-    def size(self) -> np.ndarray:
-        """(2,) extent along the rectangle's two axes."""
-        return _read_only(self.hi - self.lo)
-
-
-def _read_only(a: np.ndarray) -> np.ndarray:
-    a.flags.writeable = False  # a rectangle's cached values are shared by whoever reads them
-    return a
+        R = np.array([[c, -s], [s, c]])
+        for name, value in (("R", R), ("center", R @ ((self.lo + self.hi) / 2)), ("size", self.hi - self.lo)):
+            value.flags.writeable = False
+            object.__setattr__(self, name, value)
 
 
 def hull(xy: np.ndarray) -> np.ndarray:

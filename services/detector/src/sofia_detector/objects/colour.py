@@ -78,20 +78,17 @@ def lit_share(window: np.ndarray, rows: np.ndarray, cols: np.ndarray) -> np.ndar
 
 
 @lru_cache(maxsize=16)
-def shaded_like_another(name: str, palette: tuple[tuple[str, tuple[int, int, int]], ...]) -> bool:
-    """Whether ``name`` could be a shaded brighter colour of ``palette`` of its chromaticity."""
-    feats = {n: chroma(np.array(p, dtype=np.float64)) for n, p in palette}
-    mine = feats[name]
-    return any(
-        n != name and f[3] > mine[3] and float(colour_distance(f[:3], mine[:3])) < SAME_HUE
-        for n, f in feats.items()
-    )
-
-
-@lru_cache(maxsize=16)
 def _palette_chroma(palette: tuple[tuple[str, tuple[int, int, int]], ...]) -> np.ndarray:
     """(k, 4) chroma of the k colours of ``palette``."""
     return chroma(np.array([p for _, p in palette], dtype=np.float64))
+
+
+@lru_cache(maxsize=16)
+def shaded_like_another(name: str, palette: tuple[tuple[str, tuple[int, int, int]], ...]) -> bool:
+    """Whether ``name`` could be a shaded brighter colour of ``palette`` of its chromaticity."""
+    feats = _palette_chroma(palette)
+    mine = feats[[n for n, _ in palette].index(name)]
+    return any(f[3] > mine[3] and float(colour_distance(f[:3], mine[:3])) < SAME_HUE for f in feats)
 
 
 def name_colour(

@@ -7,8 +7,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from scipy import ndimage
 
-from ..geometry.grid import fill_holes, grow, where
+from ..geometry.grid import grow, where
 from ..geometry.rect import Rect
 from ..geometry.samples import median
 from ..segment.points import ObjectPoints
@@ -38,7 +39,7 @@ def rim_xy(obj: ObjectPoints, face: np.ndarray, top: float, drop: float) -> tupl
     r1, c1 = min(int(fr.max()) + 2, obj.shape[0]), min(int(fc.max()) + 2, obj.shape[1])
     grid = np.zeros((r1 - r0, c1 - c0), dtype=bool)
     grid[fr - r0, fc - c0] = True
-    r, c = _rim_pixels(fill_holes(grid), obj.window[2, r0:r1, c0:c1], top - drop)
+    r, c = _rim_pixels(ndimage.binary_fill_holes(grid), obj.window[2, r0:r1, c0:c1], top - drop)
     xy = obj.window[:2, r + r0, c + c0].T.astype(np.float64)
     # pixel spacing: a sample of the top's pixels and their right-hand neighbours
     k = max(1, fr.size // 200)

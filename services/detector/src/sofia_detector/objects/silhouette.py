@@ -10,7 +10,7 @@ import numpy as np
 from scipy import ndimage
 
 from ..depth.clean import EIGHT, median_chroma, of_colour
-from ..geometry.grid import fill_holes, grow, label8, where
+from ..geometry.grid import grow, label8, where
 from ..geometry.points import points_in_frame
 from ..geometry.rect import Rect, min_area_rect
 from ..geometry.samples import median
@@ -77,7 +77,7 @@ def _cells(xy: np.ndarray, lo: np.ndarray, shape: tuple[int, int]) -> np.ndarray
     idx = np.floor((xy - lo) / CELL).astype(np.intp)
     grid = np.zeros(shape, dtype=bool)
     grid[idx[:, 0], idx[:, 1]] = True
-    return fill_holes(ndimage.binary_closing(grid, EIGHT, iterations=2, border_value=0))
+    return ndimage.binary_fill_holes(ndimage.binary_closing(grid, EIGHT, iterations=2, border_value=0))
 
 
 def footprint(P: np.ndarray, rows: np.ndarray, cols: np.ndarray, height: float) -> np.ndarray:

@@ -23,7 +23,6 @@ def levels(fit: BoardFit, params: DetectorParams, organized: bool) -> Levels:
         point=max(params.object_height, params.point_k * noise),
         delta=params.neighbour_px * spacing + 3 * noise,
         delta_coarse=2 * params.stride * spacing + 4 * noise,
-        colour_tol=params.colour_tol,
     )
 
 

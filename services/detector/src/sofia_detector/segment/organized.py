@@ -9,7 +9,7 @@ import numpy as np
 from scipy import ndimage
 
 from ..depth import raised_pixels
-from ..geometry.grid import masked_points, where
+from ..geometry.grid import where
 from ..geometry.points import points_in_frame
 from ..geometry.samples import median
 from ..params import DetectorParams
@@ -37,7 +37,7 @@ def organized_objects(
     H, W = points_base.shape[:2]
     rgb_coarse = None if rgb is None else rgb[::s, ::s]
     raised = raised_pixels(
-        m_coarse, levels.seed, params.max_height, levels.delta_coarse, rgb_coarse, levels.colour_tol
+        m_coarse, levels.seed, params.max_height, levels.delta_coarse, rgb_coarse, params.colour_tol
     )
     seeds, labels, n = raised.mask, raised.labels, raised.n
     claimed = np.zeros((H, W), dtype=bool)  # the pixels of the objects found so far
@@ -72,9 +72,9 @@ def organized_objects(
         if n_pieces > pieces.size:
             obj = _with_parts_on_top(wl, n_pieces, b, obj, pieces)
         claimed[r0:r1, c0:c1] |= obj
-        points, rows_obj, cols_obj = masked_points(b, obj)
+        rows_obj, cols_obj = where(obj)
         yield ObjectPoints(
-            points, rows_obj, cols_obj, obj.shape, (r0, c0), (H, W), b,
+            b[:, rows_obj, cols_obj], rows_obj, cols_obj, obj.shape, (r0, c0), (H, W), b,
             None if rgb is None else rgb[r0:r1, c0:c1],
         )  # fmt: skip
 

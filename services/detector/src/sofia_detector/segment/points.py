@@ -42,10 +42,9 @@ def inside(xy: np.ndarray, half: np.ndarray) -> bool:
 class Levels:
     """Thresholds of one cloud (metres): heights of a coarse object pixel (seed) and of a full
     resolution point (point); :func:`..depth.clean.consistent_at` distances at full resolution and
-    on the coarse grid; colour_tol, the colour distance of holes bridged into an object."""
+    on the coarse grid."""
 
     seed: float
     point: float
     delta: float
     delta_coarse: float
-    colour_tol: float

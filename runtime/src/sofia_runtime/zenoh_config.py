@@ -112,9 +112,9 @@ def wait_for_socket(
 ) -> bool:
     """Wait until the process ``proc`` listens on its local socket (``<pid>-*.sock`` in
     :func:`socket_dir`): True once it does, and at once when sessions here do not use local sockets
-    (a config file or connect endpoints); False after ``timeout_s`` or when the process has ended."""
+    (a config file, connect endpoints, client mode); False after ``timeout_s`` or when the process has ended."""
     settings = resolve(None, env)
-    if settings["config_file"] or settings["connect"]:
+    if settings["config_file"] or settings["connect"] or settings["mode"] == "client":
         return True
     directory, deadline = socket_dir(env), time.monotonic() + timeout_s
     while not any(directory.glob(f"{proc.pid}-*.sock")):

@@ -40,7 +40,7 @@ from sofia_schemas.messages import ServiceStatus
 log = logging.getLogger("sofia.up")
 GRACE_S = 8.0
 MAX_BACKOFF_S = 10.0
-ROUTER_WAIT_S = 30.0
+START_WAIT_S = 30.0  # each process's wait for the one before it to listen
 
 
 def sofia_executable() -> list[str]:
@@ -95,12 +95,12 @@ class Launcher:
         log.info("started %-10s pid %d: %s (log %s)", m.spec.name, m.popen.pid, " ".join(m.spec.args), path)
 
     def start(self) -> None:
-        """The router first, the others once it listens: a session dials the local sockets there as
-        it opens, so one opened before the router's socket is there would never reach the router."""
+        """The router first, then each process once the one before listens: a session dials the local
+        sockets there as it opens, so two opening together could each miss the other's socket."""
         for m in sorted(self.procs.values(), key=lambda m: m.spec.name != "router"):
             self._start(m)
-            if m.spec.name == "router" and m.popen and not wait_for_socket(m.popen, ROUTER_WAIT_S, self.env):
-                log.warning("no router socket after %.0f s: %s", ROUTER_WAIT_S, self.last_line("router"))
+            if m.popen and not wait_for_socket(m.popen, START_WAIT_S, self.env):
+                log.warning("%s: no local socket after %.0f s", m.spec.name, START_WAIT_S)
 
     def poll(self) -> None:
         """Restart processes that exited (with back-off)."""

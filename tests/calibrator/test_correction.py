@@ -8,7 +8,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 from sofia_calibrator import calibrate, to_message, to_yaml
-from sofia_calibrator.fitting.correction import describe
 from sofia_calibrator.fitting.simulate import make_problem
 from sofia_schemas.messages import CalibrationResult
 from sofia_schemas.messages.calibration import (
@@ -96,7 +95,7 @@ def test_map_to_base_applies_the_full_model() -> None:
     )
     one = cal.map_to_base(p[:1], T[0])  # one (4, 4) pose broadcasts
     np.testing.assert_allclose(one, mapped[:1])
-    text = describe(cal.correction)
+    text = cal.correction.describe()
     assert "reads 5." in text and "long" in text and "0.95" in text
     assert "camera correction: depth_scale" in to_yaml(to_message(cal))
 

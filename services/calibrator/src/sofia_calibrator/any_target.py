@@ -1,7 +1,6 @@
 """One call for every target and set-up: ``calibrate_target(target, setup, ...)`` returns the same
-:class:`Calibration` (and so the same message, YAML, ROS launch line, TF and plot) whichever the
-target: a blob or a sphere (points, the point solver), a ChArUco board or an AprilTag (its pose
-per view) or plain 6-DoF target poses (OpenCV starts, joint refinement: :mod:`sofia_calibrator.targets.poses`)."""
+:class:`Calibration` (message, YAML, ROS launch line, TF, plot) for a blob or a sphere (points), a
+ChArUco board or an AprilTag (a pose per view) or plain 6-DoF target poses (:mod:`.targets.poses`)."""
 
 from __future__ import annotations
 
@@ -21,7 +20,6 @@ from .targets.sphere import DEFAULT_INLIER_M
 from .targets.sphere_shared import sphere_centres
 
 TARGETS = ("blob", "sphere", "poses", "charuco", "apriltag")
-PLANNED: tuple[str, ...] = ()  # targets named but not built yet
 
 
 def frames(setup: str) -> tuple[str, str]:
@@ -61,36 +59,29 @@ def calibrate_target(
     T_flange_cam) or "eye-to-hand" (result T_base_cam). options: those of :func:`calibrate` (for
     points). Returns a :class:`Calibration` with the set-up's frames unless given.
     """
-    if target in PLANNED:
-        raise InputMismatch(
-            f"target {target!r} is not available yet: give its 6-DoF poses with target 'poses'"
-        )
     if target not in TARGETS:
         raise InputMismatch(f"target must be one of {TARGETS}, got {target!r}")
     if setup not in SETUPS:
         raise InputMismatch(f"setup must be one of {SETUPS}, got {setup!r}")
     parent, child = frames(setup)
     parent, child = parent_frame or parent, child_frame or child
-    if target == "charuco":
+    if target in ("charuco", "apriltag"):
         if images is None or K is None:
             raise InputMismatch(
-                "target 'charuco' needs images (one per flange pose) and K, the camera matrix"
+                f"target {target!r} needs images (one per flange pose) and K, the camera matrix"
             )
-        spec = board or BoardSpec()
-        T_cam_target = board_poses(images, K, spec)
-        size_m = max(spec.size_m)
-        if clouds_cam is not None:  # the corners with depth refine the board poses' fit
-            start = hand_eye_from_poses(T_base_flange, T_cam_target, size_m, setup)
-            fit = board_points_fit(T_base_flange, corner_points(images, clouds_cam, spec), start, spec, setup)
-            return pose_calibration(fit, T_base_flange, T_cam_target, setup, parent, child)
-        target = "poses"
-    if target == "apriltag":
-        if images is None or K is None:
-            raise InputMismatch(
-                "target 'apriltag' needs images (one per flange pose) and K, the camera matrix"
-            )
-        T_cam_target = tag_poses(images, K, tag or TagSpec())
-        size_m = (tag or TagSpec()).side_m
+        if target == "apriltag":
+            tag = tag or TagSpec()
+            T_cam_target, size_m = tag_poses(images, K, tag), tag.side_m
+        else:
+            spec = board or BoardSpec()
+            T_cam_target, size_m = board_poses(images, K, spec), max(spec.size_m)
+            if clouds_cam is not None:  # the corners with depth refine the board poses' fit
+                start = hand_eye_from_poses(T_base_flange, T_cam_target, size_m, setup)
+                fit = board_points_fit(
+                    T_base_flange, corner_points(images, clouds_cam, spec), start, spec, setup
+                )
+                return pose_calibration(fit, T_base_flange, T_cam_target, setup, parent, child)
         target = "poses"
     if target == "poses":
         if T_cam_target is None:
@@ -121,13 +112,12 @@ def pose_calibration(
     )
     res_mm = 1e3 * np.linalg.norm(r[:, 0], axis=1)
     n = len(A)
-    std = np.sqrt(np.maximum(fit.covariance6.diagonal(), 0.0))
     warnings = dg.check_motion(A)
     return Calibration(
         T_flange_cam=fit.X, p_base=fit.T_fixed_target[:3, 3], samples=list(range(n)), mapped_base=origins,
         mapped_start=start, residuals_mm=res_mm, spread_mm=1e3 * dg.spread(origins),
         dissipation_before=dg.dissipation(start), dissipation_after=dg.dissipation(origins),
-        std_translation_mm=1e3 * std[:3], std_rotation_deg=np.degrees(std[3:]), covariance=fit.covariance6,
+        std_translation_mm=fit.std_translation_mm, std_rotation_deg=fit.std_rotation_deg, covariance=fit.covariance6,
         noise_scale=1.0, n_iter=0, covariance6=fit.covariance6, noise_mm=1e3 * fit.rms_m,
         inliers=list(range(n)), leave_one_out_mm=res_mm, warnings=warnings,
         p_cam=B[:, :3, 3], T_base_flange=A,

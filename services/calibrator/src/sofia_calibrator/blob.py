@@ -1,14 +1,11 @@
 """Find the dark calibration blob on the white sheet in an organized RGB-D cloud.
 
-The blob's 3D centre is the area centroid of the blob's pixels cast onto the plane fitted to the
-sheet around it, so it is robust to missing or noisy depth on the blob itself. Each pixel is cast
-along its ray and weighted by the area it covers on the plane, which grows as 1 / |n . r|^3 for a
-ray r = (x/z, y/z, 1) and the plane's unit normal n: the centroid is the disc's centre in any view,
-where the plain pixel centroid would be pulled towards the near side of a tilted disc (the image
-of a circle's centre is not the centre of its image). Specular glare (saturated pixels, bright
-depth holes) touching the blob's rim would pull the centroid away: the centre then comes from an
-ellipse fitted to the rim that is left, and the confidence drops by the fraction of the rim the
-glare touches.
+The blob's 3D centre is the area centroid of its pixels cast along their rays onto the plane fitted
+to the sheet around it (robust to missing depth on the blob), each weighted by the area it covers
+there, 1 / |n . r|^3 for a ray r = (x/z, y/z, 1) and the plane's unit normal n: the disc's centre in
+any view (a tilted disc's pixel centroid is pulled to its near side). Specular glare (saturated
+pixels, bright depth holes) on the rim: the centre comes from an ellipse fitted to the rest of the
+rim, and the confidence drops by the fraction of the rim the glare touches.
 """
 
 from __future__ import annotations
@@ -36,16 +33,6 @@ class Blob:
     confidence: float  # 0..1
     n_pixels: int
     centroid_px: tuple[float, float]  # (u, v)
-
-
-def _validate(points_cam: np.ndarray, rgb: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    points_cam = np.asarray(points_cam, dtype=np.float64)
-    rgb = np.asarray(rgb)
-    if points_cam.ndim != 3 or points_cam.shape[2] != 3:
-        raise InputMismatch(f"points_cam must be an organized cloud (H, W, 3), got {points_cam.shape}")
-    if rgb.shape != points_cam.shape:
-        raise InputMismatch(f"rgb must have the cloud's shape {points_cam.shape}, got {rgb.shape}")
-    return points_cam, rgb
 
 
 def _rays(points_cam: np.ndarray) -> tuple[float, float, float, float]:
@@ -88,20 +75,6 @@ def _glare(mask: np.ndarray, grey: np.ndarray, points_cam: np.ndarray) -> tuple[
     return np.c_[ru + c0, rv + r0].astype(np.float64), float(touched.sum()) / max(int(rim.sum()), 1)
 
 
-def _ellipse_centre(uv: np.ndarray) -> tuple[float, float] | None:
-    """Centre (u, v) of the conic a x^2 + b xy + (1 - a) y^2 + d x + e y + f = 0 fitted to (k, 2)
-    outline points by least squares (coordinates centred for conditioning); None if not an ellipse."""
-    c = uv.mean(axis=0)
-    x, y = (uv - c).T
-    A = np.c_[x * x - y * y, x * y, x, y, np.ones_like(x)]
-    a, b, d, e, _ = np.linalg.lstsq(A, -y * y, rcond=None)[0]
-    M = np.array([[2 * a, b], [b, 2 * (1 - a)]])
-    if np.linalg.det(M) <= 0:
-        return None
-    x0, y0 = np.linalg.solve(M, [-d, -e])
-    return float(x0 + c[0]), float(y0 + c[1])
-
-
 def _plane_centroid(
     uu: np.ndarray,
     vv: np.ndarray,
@@ -125,7 +98,11 @@ def find_blob(points_cam: np.ndarray, rgb: np.ndarray) -> Blob:
     points_cam: (H, W, 3) float, camera optical frame, metres, NaN where missing.
     rgb: (H, W, 3) uint8. Raises BlobNotFound, BlobCutByEdge, BlobAmbiguous or BlobNoDepth.
     """
-    points_cam, rgb = _validate(points_cam, rgb)
+    points_cam, rgb = np.asarray(points_cam, dtype=np.float64), np.asarray(rgb)
+    if points_cam.ndim != 3 or points_cam.shape[2] != 3:
+        raise InputMismatch(f"points_cam must be an organized cloud (H, W, 3), got {points_cam.shape}")
+    if rgb.shape != points_cam.shape:
+        raise InputMismatch(f"rgb must have the cloud's shape {points_cam.shape}, got {rgb.shape}")
     H, W, _ = rgb.shape
     grey = rgb.astype(np.float32).mean(axis=2)
     bright = grey > BRIGHT
@@ -163,9 +140,11 @@ def find_blob(points_cam: np.ndarray, rgb: np.ndarray) -> Blob:
     u_c, v_c = float(uu.mean()), float(vv.mean())
     clean_rim, glare = _glare(mask, grey, points_cam)
     outline_centre = False
-    if glare > 0.0:  # glare eats part of the blob: its centre from the outline that is left
-        centre = _ellipse_centre(clean_rim) if len(clean_rim) >= MIN_CLEAN_RIM else None
-        if centre is not None and np.hypot(centre[0] - u_c, centre[1] - v_c) < 0.5 * np.sqrt(size):
+    if glare > 0.0 and len(clean_rim) >= MIN_CLEAN_RIM:  # glare eats part of the blob: its centre
+        import cv2
+
+        centre = cv2.fitEllipse(clean_rim.astype(np.float32))[0]  # from the outline that is left
+        if np.hypot(centre[0] - u_c, centre[1] - v_c) < 0.5 * np.sqrt(size):
             (u_c, v_c), outline_centre = centre, True
     ring = ndimage.binary_dilation(mask, iterations=RING_PX) & ~mask & bright
     on_plane = (mask | ring) & np.isfinite(points_cam).all(axis=2)

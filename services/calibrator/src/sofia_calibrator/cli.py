@@ -6,16 +6,14 @@ import argparse
 import json
 import logging
 from importlib.metadata import entry_points
-from typing import Any
 
-import numpy as np
 from sofia_runtime.output import add_json_option, float_arg
 from sofia_runtime.zenoh_config import add_zenoh_args
 from sofia_schemas.frames import CAMERA_FRAME as CHILD_FRAME
 from sofia_schemas.frames import FLANGE_FRAME as PARENT_FRAME
 from sofia_schemas.keys import add_robot_arg
 
-from .cli_inputs import add_target_args, load_samples, run_target, scale_prior
+from .cli_inputs import add_target_args, run_target
 from .inbox import QUERY_DEADLINE_S
 from .samples.errors import MAX_SAMPLES
 
@@ -24,7 +22,6 @@ log = logging.getLogger(__name__)
 # modes under `sofia calibrate` that other packages add (the arm's `auto`): each entry point is a
 # function called with the `calibrate` parser
 CALIBRATE_MODES = "sofia.calibrate_modes"
-GUESS_QUAT_TOL = 0.01  # a typed guess quaternion within 1 % of unit norm is normalised
 
 
 def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
@@ -109,32 +106,10 @@ def add_frame_args(p: argparse.ArgumentParser) -> None:
 
 
 def run_calibrate(args: argparse.Namespace) -> int:
-    from .fitting.calibrate import calibrate
-
-    if args.target != "blob" or args.setup != "eye-in-hand":
-        return _report(run_target(args), args)
-    p_cam, T = load_samples(args)
-    guess = None
-    if args.guess:
-        g = np.array(args.guess)
-        norm = float(np.linalg.norm(g[3:]))
-        if abs(norm - 1.0) < GUESS_QUAT_TOL:  # hand-typed: normalise small rounding errors
-            g[3:] /= norm
-        from sofia_schemas.transforms import make_transform
-
-        guess = make_transform(g[:3], g[3:])
-    cal = calibrate(
-        p_cam, T, guess=guess, sigma=args.noise, loss=args.loss, exclude_outliers=not args.keep_outliers,
-        correction=args.correction, parent_frame=args.parent_frame, child_frame=args.child_frame,
-        depth_scale_prior=scale_prior(args),
-    )  # fmt: skip
-    return _report(cal, args)
-
-
-def _report(cal: Any, args: argparse.Namespace) -> int:
-    """Print and write a calibration's result (YAML or JSON, --yaml, --plot); 0 when it passes."""
+    """Print and write the calibration's result (YAML or JSON, --yaml, --plot); 0 when it passes."""
     from .formats import to_message, to_yaml
 
+    cal = run_target(args)
     msg = to_message(cal)
     if args.yaml:
         with open(args.yaml, "w") as f:

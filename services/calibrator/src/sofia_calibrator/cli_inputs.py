@@ -13,6 +13,8 @@ from sofia_schemas.frames import FLANGE_FRAME as PARENT_FRAME
 
 from .errors import InputMismatch
 
+GUESS_QUAT_TOL = 0.01  # a typed guess quaternion within 1 % of unit norm is normalised
+
 
 def add_target_args(p: argparse.ArgumentParser) -> None:
     """--target / --setup and the inputs of the sphere and pose targets."""
@@ -64,18 +66,14 @@ def add_target_args(p: argparse.ArgumentParser) -> None:
     g.add_argument("--tag-id", type=int, default=0, help="apriltag: the tag's id (default 0)")
 
 
-def run_target(args: argparse.Namespace) -> object:
-    """The calibration of ``--target`` / ``--setup`` (any target but the plain eye-in-hand blob)."""
-    from .any_target import PLANNED, calibrate_target, frames
+def run_target(args: argparse.Namespace) -> Any:
+    """The calibration of ``--target`` / ``--setup``."""
+    from .any_target import calibrate_target, frames
 
     parent, child = frames(args.setup)
     parent = parent if args.parent_frame == PARENT_FRAME else args.parent_frame
     child = child if args.child_frame == CHILD_FRAME else args.child_frame
     common: dict[str, Any] = {"parent_frame": parent, "child_frame": child}
-    if args.target in PLANNED:
-        raise InputMismatch(
-            f"--target {args.target} is not available yet: give its poses with --target poses"
-        )
     if args.target == "poses":
         from .targets.files import read_opencv_pose_pairs
 
@@ -86,7 +84,7 @@ def run_target(args: argparse.Namespace) -> object:
     if args.target in ("charuco", "apriltag"):
         return calibrate_target(args.target, args.setup, **image_inputs(args), **common)
     options: dict[str, Any] = {"sigma": args.noise, "loss": args.loss, "exclude_outliers": not args.keep_outliers,
-               "correction": args.correction, "depth_scale_prior": scale_prior(args), **common}  # fmt: skip
+               "correction": args.correction, "depth_scale_prior": scale_prior(args), "guess": guess(args), **common}  # fmt: skip
     if args.target == "sphere" and args.mcap:  # a coloured ball in the recording's camera clouds
         from .inputs.mcap import read_mcap
 
@@ -96,29 +94,27 @@ def run_target(args: argparse.Namespace) -> object:
         if m.radius_m is not None:
             print(f"ball radius {1e3 * m.radius_m:.2f} mm, fitted to {len(m.p_cam)} views", file=sys.stderr)
         return calibrate_target("blob", args.setup, T_base_flange=m.T_base_flange, p_cam=m.p_cam, **options)
-    if args.euler_poses:
-        from .targets.files import read_euler_poses
+    if args.target == "blob":
+        p_cam, T = load_samples(args)
+        return calibrate_target("blob", args.setup, T_base_flange=T, p_cam=p_cam, **options)
+    from .targets.files import read_cloud, read_euler_poses
 
+    if args.euler_poses:
         T = read_euler_poses(args.euler_poses, args.euler_convention, args.length_unit)
-    elif args.target == "sphere" and args.tfs:
+    elif args.tfs:
         from .inputs.lab import read_tfs
 
         T = read_tfs(args.tfs)
     else:
-        p_cam, T = load_samples(args)
-    if args.target == "sphere":
-        from .targets.files import read_cloud
-
-        if not args.clouds:
-            raise InputMismatch(
-                "--target sphere needs --clouds (one cloud file per flange pose) or --mcap FILE"
-            )
-        if len(args.clouds) != len(T):
-            raise InputMismatch(f"{len(args.clouds)} clouds but {len(T)} flange poses")
-        clouds = [read_cloud(c) * args.cloud_unit for c in args.clouds]
-        return calibrate_target("sphere", args.setup, T_base_flange=T, clouds_cam=clouds, radius_m=args.radius,
-                                **options)  # fmt: skip
-    return calibrate_target(args.target, args.setup, T_base_flange=T, p_cam=p_cam, **options)
+        T = load_samples(args)[1]
+    if not args.clouds:
+        raise InputMismatch("--target sphere needs --clouds (one cloud file per flange pose) or --mcap FILE")
+    if len(args.clouds) != len(T):
+        raise InputMismatch(f"{len(args.clouds)} clouds but {len(T)} flange poses")
+    clouds = [read_cloud(c) * args.cloud_unit for c in args.clouds]
+    return calibrate_target(
+        "sphere", args.setup, T_base_flange=T, clouds_cam=clouds, radius_m=args.radius, **options
+    )
 
 
 def image_inputs(args: argparse.Namespace) -> dict[str, Any]:
@@ -197,6 +193,20 @@ def load_samples(args: argparse.Namespace) -> tuple[np.ndarray, np.ndarray]:
             )
         return p_cam, T
     raise InputMismatch("give --poses with --tfs or --joints, or --samples FILE, or --mcap FILE")
+
+
+def guess(args: argparse.Namespace) -> np.ndarray | None:
+    """The (4, 4) transform of ``--guess`` (x y z qx qy qz qw), or None; a quaternion typed within
+    ``GUESS_QUAT_TOL`` of unit norm is normalised."""
+    if not args.guess:
+        return None
+    from sofia_schemas.transforms import make_transform
+
+    g = np.array(args.guess)
+    norm = float(np.linalg.norm(g[3:]))
+    if abs(norm - 1.0) < GUESS_QUAT_TOL:  # hand-typed: normalise small rounding errors
+        g[3:] /= norm
+    return make_transform(g[:3], g[3:])
 
 
 def scale_prior(args: argparse.Namespace) -> Any:

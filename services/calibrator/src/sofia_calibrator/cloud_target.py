@@ -1,12 +1,9 @@
 """The calibration point the live service takes from each camera cloud (``serve --from-clouds``):
 the blob on the sheet (:func:`sofia_calibrator.blob.find_blob`) or a ball
-(:func:`sofia_calibrator.targets.ball.find_ball`), with its confidence.
-
-A ball of unknown radius is fitted per view as each cloud comes; its views' segments are kept
-(the last ``MAX_VIEWS``), and each solve refits their centres with one radius shared by all of
-them (:func:`~sofia_calibrator.targets.sphere_shared.fit_shared`): a radius fitted per view trades
-off against the centre along the view ray (synthetic 25 mm balls, 12 sets of 10 views: centre
-error 0.22 mm RMS per view, 0.10 mm shared)."""
+(:func:`sofia_calibrator.targets.ball.find_ball`), with its confidence. A ball of unknown radius:
+its last ``MAX_VIEWS`` views' segments are kept and each solve refits their centres with one shared
+radius (:func:`~sofia_calibrator.targets.sphere_shared.fit_shared`; synthetic 25 mm balls, 12 sets
+of 10 views: centre error 0.22 mm RMS per view, 0.10 mm shared)."""
 
 from __future__ import annotations
 
@@ -18,9 +15,10 @@ import numpy as np
 from sofia_schemas.cloud import PointCloud2
 
 from .errors import InputMismatch
+from .targets.ball import CLOUD_TARGETS, find_target
+from .targets.sphere_shared import MAX_POINTS_PER_VIEW, fit_shared
 
 log = logging.getLogger(__name__)
-CLOUD_TARGETS = ("blob", "ball")
 # Ball views kept for the shared radius (the latest; older samples keep their own fit's centre).
 # The refit costs each solve about 30 ms per view (0.95 s for 30 views of 1500 points, load 4).
 MAX_VIEWS = 30
@@ -43,25 +41,13 @@ class CloudTarget:
         """(p_cam (3,) camera optical frame m, confidence 0..1) of the target in an organized cloud
         points_cam (H, W, 3) with colours rgb (H, W, 3) uint8 stamped ``stamp_ns``; raises
         CalibrationError when absent."""
-        if self.kind == "ball":
-            from .targets.ball import find_ball
-            from .targets.sphere_shared import MAX_POINTS_PER_VIEW
-
-            ball = find_ball(points_cam, rgb, self.radius_m)
-            if self.radius_m is None:
-                pts, centre, radius = ball.segment
-                self.segments[stamp_ns] = (
-                    pts[:: max(1, -(-len(pts) // MAX_POINTS_PER_VIEW))],
-                    centre,
-                    radius,
-                )
-                while len(self.segments) > MAX_VIEWS:
-                    self.segments.popitem(last=False)
-            return ball.p_cam, ball.confidence
-        from .blob import find_blob
-
-        blob = find_blob(points_cam, rgb)
-        return blob.p_cam, blob.confidence
+        p_cam, confidence, segment = find_target(self.kind, points_cam, rgb, self.radius_m)
+        if segment is not None and self.radius_m is None:  # a ball's view, for the shared radius
+            pts, centre, radius = segment
+            self.segments[stamp_ns] = (pts[:: max(1, -(-len(pts) // MAX_POINTS_PER_VIEW))], centre, radius)
+            while len(self.segments) > MAX_VIEWS:
+                self.segments.popitem(last=False)
+        return p_cam, confidence
 
     def find_in(self, cloud: PointCloud2) -> tuple[np.ndarray, float]:
         """:meth:`find` in an organized camera cloud message with an rgb field."""
@@ -75,8 +61,6 @@ class CloudTarget:
         """stamp_ns -> (3,) ball centre (camera optical frame, metres) of the samples ``stamps_ns``
         whose view is kept, refitted with one radius shared by them; empty below 2 such views or
         with a known radius."""
-        from .targets.sphere_shared import fit_shared
-
         kept = [s for s in stamps_ns if s in self.segments]
         if self.radius_m is not None or len(kept) < 2:
             return {}

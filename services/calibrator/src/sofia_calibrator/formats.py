@@ -13,7 +13,6 @@ from sofia_schemas.messages.calibration import CalibrationSummary, CorrectionCan
 from sofia_schemas.transforms import matrix_to_quat_xyzw
 
 from .fitting.calibrate import CHILD_FRAME, PARENT_FRAME, Calibration
-from .fitting.correction import describe
 from .fitting.fit import Fit
 
 
@@ -60,28 +59,18 @@ def _summary(fit: Fit) -> CalibrationSummary:
 
 
 def _candidates(cal: Calibration) -> list[CorrectionCandidate]:
-    out = []
-    for c in cal.candidates:
-        sig = None if c.beta_sigma is None else float(c.beta_sigma[0])
-        out.append(CorrectionCandidate(
-            model=c.model, n_params=c.n_params, chi2=c.chi2, aic=c.aic, p_value=c.p_value,  # type: ignore[arg-type]
-            depth_scale=1.0 + float(c.beta[0]) if len(c.beta) else 1.0, depth_scale_sigma=sig,
-            chosen=c.model == cal.correction.model,
-        ))  # fmt: skip
-    return out
+    return [CorrectionCandidate(
+        model=c.model, n_params=c.n_params, chi2=c.chi2, aic=c.aic, p_value=c.p_value,  # type: ignore[arg-type]
+        depth_scale=1.0 + float(c.beta[0]) if len(c.beta) else 1.0, chosen=c.model == cal.correction.model,
+        depth_scale_sigma=None if c.beta_sigma is None else float(c.beta_sigma[0]),
+    ) for c in cal.candidates]  # fmt: skip
 
 
 def to_message(
-    cal: Calibration,
-    stamp_ns: int | None = None,
-    sample_ids: list[int] | None = None,
-    parent_frame: str | None = None,
-    child_frame: str | None = None,
+    cal: Calibration, stamp_ns: int | None = None, sample_ids: list[int] | None = None
 ) -> CalibrationResult:
-    """The :class:`CalibrationResult` bus message of a calibration (frames: the calibration's
-    unless given)."""
-    T = cal.T_flange_cam
-    parent, child = parent_frame or cal.parent_frame, child_frame or cal.child_frame
+    """The :class:`CalibrationResult` bus message of a calibration, in the calibration's frames."""
+    T, parent, child = cal.T_flange_cam, cal.parent_frame, cal.child_frame
     return CalibrationResult(
         stamp_ns=now_ns() if stamp_ns is None else stamp_ns,
         parent_frame=parent, child_frame=child, matrix=T.tolist(),
@@ -131,7 +120,7 @@ def to_yaml(result: CalibrationResult) -> str:
         f"std_translation_mm: {fl(result.std_translation_mm)}",
         f"std_rotation_deg: {fl(result.std_rotation_deg)}",
         "# camera_correction: apply to measured camera points before T_flange_cam",
-        f"# {describe(result.camera_correction)}",
+        f"# {result.camera_correction.describe()}",
         "camera_correction:",
         f"  model: {result.camera_correction.model}",
         f"  depth_scale: {fl(result.camera_correction.depth_scale)}",

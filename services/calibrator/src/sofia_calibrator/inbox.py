@@ -1,9 +1,8 @@
 """What the calibrator's Zenoh callbacks hand to its worker, in three bounded queues.
 
-Queries have their own queue, so a flood of blobs never crowds them out; when even that queue is
-full the caller answers "busy, retry" at once (a query never goes unanswered). Poses and blobs that
-find their queue full are dropped and counted per kind; camera clouds keep only the newest few.
-The worker wakes as soon as anything arrives and takes everything pending at once.
+Queries have their own queue (a flood of blobs never crowds them out); when it is full the caller
+answers "busy, retry" at once. Poses and blobs finding theirs full are dropped and counted per
+kind; camera clouds keep the newest few. The worker takes everything pending at once.
 """
 
 from __future__ import annotations
@@ -74,6 +73,3 @@ class Inbox:
             self._clouds.clear()
             self._queries.clear()
             return batch
-
-    def waiting(self) -> int:
-        return len(self._events) + len(self._clouds) + len(self._queries)

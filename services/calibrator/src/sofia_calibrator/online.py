@@ -18,8 +18,8 @@ from sofia_schemas.messages.calibration import (
 from sofia_schemas.transforms import make_transform, matrix_to_quat_xyzw
 
 from .errors import CalibrationError
-from .eye_to_hand import BASE_FRAME, flange_base_poses
-from .fitting.calibrate import CHILD_FRAME, PARENT_FRAME, calibrate
+from .eye_to_hand import BASE_FRAME, calibrate_setup
+from .fitting.calibrate import CHILD_FRAME, PARENT_FRAME
 from .formats import to_message
 from .pairing import NotPaired, PairingOptions, PoseBuffer
 from .samples.store import SampleStore
@@ -64,7 +64,7 @@ class Calibrator:
     def pair_pending(self) -> list[CalibrationSample]:
         """Pair the blobs whose flange poses (up to the still window after them) have arrived."""
         added, keep = [], []
-        latest = self.poses.latest_ns
+        latest = self.poses.stamps_ns[-1] if self.poses.stamps_ns else None
         for stamp_ns, p_cam, conf, t_in in self.pending:
             ready = latest is not None and latest >= stamp_ns + self.pairing.still_window_ns
             if not ready and time.monotonic() - t_in < PENDING_TIMEOUT_S:
@@ -93,23 +93,17 @@ class Calibrator:
         opts = options or self.options
         p, T, ids = self.store.arrays()
         samples = self.store.ordered()  # the rows of p and T
-        if self.centres is not None:  # the stored centres stay as measured; the solve takes these
-            better = self.centres([s.stamp_ns for s in samples])
-            p = (
-                np.array([better.get(s.stamp_ns, row) for s, row in zip(samples, p, strict=True)])
-                if better
-                else p
-            )
+        better = self.centres([s.stamp_ns for s in samples]) if self.centres is not None else {}
+        if better:  # the stored centres stay as measured; the solve takes these
+            p = np.array([better.get(s.stamp_ns, row) for s, row in zip(samples, p, strict=True)])
         guess = (
             None if opts.guess is None else make_transform(np.array(opts.guess[:3]), np.array(opts.guess[3:]))
         )
         conf = np.clip([s.confidence for s in samples], MIN_CONFIDENCE, 1.0)
-        parent = self.parent_frame
-        if opts.setup == "eye-to-hand":  # T_base_cam: the base is the parent (unless configured)
-            T = flange_base_poses(T)
-            parent = BASE_FRAME if parent == PARENT_FRAME else parent
-        cal = calibrate(
-            p, T, guess=guess, sigma=opts.noise, confidence=conf, loss=opts.loss,  # type: ignore[arg-type]
+        parent = self.parent_frame  # eye-to-hand, T_base_cam: the base is the parent (unless configured)
+        parent = BASE_FRAME if opts.setup == "eye-to-hand" and parent == PARENT_FRAME else parent
+        cal = calibrate_setup(
+            p, T, opts.setup, guess=guess, sigma=opts.noise, confidence=conf, loss=opts.loss,  # type: ignore[arg-type]
             exclude_outliers=opts.exclude_outliers, correction=opts.correction,
             depth_scale_prior=opts.depth_scale_prior, parent_frame=parent, child_frame=self.child_frame,
         )  # fmt: skip

@@ -45,10 +45,6 @@ class PoseBuffer:
         if len(self.stamps_ns) > self.max_len:
             del self.stamps_ns[0], self.poses[0]
 
-    @property
-    def latest_ns(self) -> int | None:
-        return self.stamps_ns[-1] if self.stamps_ns else None
-
     def pose_at(self, stamp_ns: int, opts: PairingOptions) -> np.ndarray:
         """(4, 4) T_base_flange at ``stamp_ns``: interpolated between bracketing poses, or the nearest
         within the tolerance; NotPaired otherwise."""
@@ -69,13 +65,15 @@ class PoseBuffer:
         raise NotPaired(stamp_ns, f"nearest flange pose is {gap / 1e6:.1f} ms away (tolerance "
                                   f"{opts.tolerance_ns / 1e6:.1f} ms)")  # fmt: skip
 
-    def check_still(self, stamp_ns: int, opts: PairingOptions) -> None:
-        """NotPaired when the flange moved within ``still_window_ns`` of ``stamp_ns``."""
+    def pair(self, stamp_ns: int, opts: PairingOptions) -> np.ndarray:
+        """T_base_flange for a blob at ``stamp_ns`` taken while still (the flange did not move within
+        ``still_window_ns`` of it); NotPaired otherwise."""
+        T_pair = self.pose_at(stamp_ns, opts)
         lo = bisect.bisect_left(self.stamps_ns, stamp_ns - opts.still_window_ns)
         hi = bisect.bisect_right(self.stamps_ns, stamp_ns + opts.still_window_ns)
         if hi - lo < 1:
-            return
-        T = np.stack([self.pose_at(stamp_ns, opts), *self.poses[lo:hi]])
+            return T_pair
+        T = np.stack([T_pair, *self.poses[lo:hi]])
         dt = float(np.max(np.linalg.norm(T[:, :3, 3] - T[0, :3, 3], axis=1)))
         dr = float(np.degrees(np.max(rotation_angle(np.einsum("ji,njk->nik", T[0, :3, :3], T[:, :3, :3])))))
         if dt > opts.still_translation_m or dr > opts.still_rotation_deg:
@@ -84,9 +82,4 @@ class PoseBuffer:
                 f"the flange was moving ({dt * 1e3:.1f} mm, {dr:.2f} deg within "
                 f"{opts.still_window_ns / 1e6:.0f} ms)",
             )
-
-    def pair(self, stamp_ns: int, opts: PairingOptions) -> np.ndarray:
-        """T_base_flange for a blob at ``stamp_ns`` taken while still; NotPaired otherwise."""
-        T = self.pose_at(stamp_ns, opts)
-        self.check_still(stamp_ns, opts)
-        return T
+        return T_pair

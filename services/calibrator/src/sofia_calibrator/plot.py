@@ -1,10 +1,8 @@
-"""The lab's dissipation plot, done well: the blob mapped into the base frame before (the user's
-guess, or the identity as in the lab's launch file) and after calibration, per axis and sample, on
-one scale, then the result alone, zoomed; outliers marked, the lab's band (10 mm wide, drawn as
-+-5 mm about the middle of the inliers' range: a spread within it passes); the depth residual
-against depth, where a depth-scale error shows as a slope; and how the flange poses turn (each
-pose's rotation from their mean, about the base axes), which is what the observability advice
-is about: poses that turn about one axis only leave the calibration unobserved about the others."""
+"""The lab's dissipation plot, done well: the blob mapped into the base frame before (the guess, or
+the identity as in the lab's launch file) and after calibration, per axis and sample, then the result
+alone, zoomed, with outliers and the lab's 10 mm band (+-5 mm about the middle of the inliers'
+range); the depth residual against depth (a depth-scale error shows as a slope); and each flange
+pose's rotation from their mean about the base axes (the observability advice is about these)."""
 
 from __future__ import annotations
 

@@ -1,9 +1,6 @@
 """``sofia calibrator``: accumulates blob/flange-pose samples online, re-solves once a burst of new
 ones is over, publishes the result, and answers queries (result, add, remove, reset, solve, save,
-samples).
-
-Zenoh callbacks only hand data to the :class:`Inbox`; one worker thread pairs, stores, solves and
-replies.
+samples). Zenoh callbacks only hand data to the :class:`Inbox`; one worker thread does the rest.
 """
 
 from __future__ import annotations
@@ -203,24 +200,20 @@ class Service:
         refuse) becomes :class:`SolveFailed` naming it. A failure with the service's own options
         makes the status degraded until a solve succeeds (one with a caller's options only answers
         that caller)."""
-        n = len(self.cal.store.samples)
         try:
             result = self.cal.solve(opts)
-        except ValidationError as e:
-            first = e.errors()[0]
-            where = ".".join(str(p) for p in first["loc"])
-            reason = f"the fit gave an impossible {where}: {first['msg']} (got {first.get('input')!r})"
-            self._failed(SolveFailed(n, reason), opts is None)
-        except Exception as e:  # CalibrationError, or a numerical failure
-            self._failed(SolveFailed(n, f"{type(e).__name__}: {e}"), opts is None)
+        except Exception as e:  # CalibrationError, a numerical failure, or a fit the result refuses
+            reason = f"{type(e).__name__}: {e}"
+            if isinstance(e, ValidationError):
+                first = e.errors()[0]
+                where = ".".join(str(p) for p in first["loc"])
+                reason = f"the fit gave an impossible {where}: {first['msg']} (got {first.get('input')!r})"
+            failed = SolveFailed(len(self.cal.store.samples), reason)
+            self.solve_failures += 1
+            self.solve_failing = f"{failed}" if opts is None else self.solve_failing
+            raise failed from e
         self.solve_failing = ""
         return result
-
-    def _failed(self, e: SolveFailed, own_options: bool) -> None:
-        self.solve_failures += 1
-        if own_options:
-            self.solve_failing = f"{e}"
-        raise e
 
     def samples_reply(self, query: zenoh.Query, payload: bytes = b"") -> None:
         page = SamplesPage.model_validate_json(payload) if payload.strip() else SamplesPage()

@@ -24,6 +24,7 @@ from .solver import LOSSES
 MIN_SAMPLES = 3
 PARENT_FRAME = FLANGE_FRAME  # the lab's launch file: flange
 CHILD_FRAME = CAMERA_FRAME
+LOSS_SCALE = 3.0  # of the robust losses, in sigma units
 MAX_ADVICE = 5  # at most this many samples named as the removal that would meet the lab criterion
 
 
@@ -106,15 +107,10 @@ def _noise(p: np.ndarray, sigma: object, confidence: np.ndarray | None, camera: 
     return replace(model, base=model.base / np.clip(c, 0.05, 1.0)[:, None])
 
 
-def _models(correction: str) -> tuple[str, ...]:
-    if correction == "auto":
-        return cc.AUTO_MODELS
-    if correction not in cc.MODELS:
-        raise InputMismatch(f"correction must be 'auto' or one of {cc.MODELS}, got {correction!r}")
-    return (correction,)
-
-
 def _prior(prior: ScalePrior | tuple[float, float] | None, correction: str) -> ScalePrior | None:
+    """The :class:`ScalePrior` of the ``depth_scale_prior`` option, with ``correction`` checked."""
+    if correction != "auto" and correction not in cc.MODELS:
+        raise InputMismatch(f"correction must be 'auto' or one of {cc.MODELS}, got {correction!r}")
     if prior is None or isinstance(prior, ScalePrior):
         out = prior
     else:
@@ -148,9 +144,7 @@ def calibrate(
     guess: np.ndarray | None = None,
     sigma: np.ndarray | Literal["auto", "depth", "uniform"] | None = None,
     loss: str = "linear",
-    loss_scale: float = 3.0,
     exclude_outliers: bool = True,
-    outlier_alpha: float = dg.OUTLIER_ALPHA,
     enforce_criterion: bool = True,
     leave_one_out: bool = True,
     correction: str = "auto",
@@ -163,9 +157,8 @@ def calibrate(
 
     p_cam: (n, 3) blob, camera optical frame, metres. T_base_flange: (n, 4, 4) flange poses
     (panda_link0 -> panda_link8) in the base frame. guess: optional (4, 4) T_flange_cam, one more
-    start beside the closed form (never required). loss: "linear", "huber" or "cauchy" (scale in
-    sigma units).
-    sigma: the noise model; its level is always estimated from the residuals. "auto" (default,
+    start beside the closed form (never required). loss: "linear", "huber" or "cauchy" (scale
+    ``LOSS_SCALE``). sigma: the noise model; its level is always estimated from the residuals. "auto" (default,
     None): an isotropic component (robot, blob extraction) added to the D435 model; "depth": the
     D435 model times a factor; "uniform": isotropic; an (n, 3) or (n,) array (metres): relative
     weights times a factor. confidence: optional (n,) in (0, 1] dividing each sample's sigma.
@@ -175,7 +168,7 @@ def calibrate(
     as a prior (:mod:`sofia_calibrator.fitting.prior`), no test; correction must be auto or depth_scale.
 
     Outliers: the studentized leave-one-out test (F(3, dof - 3), family-wise false-alarm rate
-    ``outlier_alpha``), worst first, under the chosen correction, among the gross errors of a
+    ``diagnostics.OUTLIER_ALPHA``), worst first, under the chosen correction, among the gross errors of a
     robust fit (:mod:`sofia_calibrator.fitting.screen`: heavy-tailed noise does not make outliers). exclude_outliers: the returned
     fit leaves them out (``with_all_samples`` keeps the other fit); else it keeps them
     (``without_outliers``). The lab's 1 cm criterion never removes samples: when it fails and
@@ -190,7 +183,8 @@ def calibrate(
     noise = _noise(p, sigma, confidence, camera)
     warnings = dg.check_motion(T)
     prior = _prior(depth_scale_prior, correction)
-    prob = Problem(p, T, noise, g, loss, loss_scale, _models(correction), camera, prior)
+    models = cc.AUTO_MODELS if correction == "auto" else (correction,)
+    prob = Problem(p, T, noise, g, loss, LOSS_SCALE, models, camera, prior)
     n = len(p)
     idx = np.arange(n)
     sel_all = prob.select(idx)
@@ -201,13 +195,13 @@ def calibrate(
     inf_all: Influence | None = None
     inf_sel: Influence | None = None
     # only a gross error of a robust fit may be removed (heavy-tailed noise: see screen.py)
-    gross = gross_errors(p, T, noise.sigma(), outlier_alpha) if len(kept) > keep_min else np.zeros(n, bool)
+    gross = gross_errors(p, T, noise.sigma(), dg.OUTLIER_ALPHA) if len(kept) > keep_min else np.zeros(n, bool)
     while len(kept) > keep_min and gross[kept].any():
         inf_sel = influence(sel.solution)
         inf_all = inf_sel if sel is sel_all else inf_all
         pv = np.where(np.isnan(inf_sel.p_value) | ~gross[kept], np.inf, inf_sel.p_value)
         k = int(pv.argmin())
-        if not pv[k] < outlier_alpha / len(kept):
+        if not pv[k] < dg.OUTLIER_ALPHA / len(kept):
             break
         outliers.append(int(kept[k]))
         kept = np.delete(kept, k)

@@ -1,15 +1,10 @@
 """Camera-correction models fitted jointly with ``T_flange_cam``, and the choice between them.
 
-A D435's depth is often off by a scale of 1-5 %. The measured blob ``p_cam`` (camera optical
-frame, metres) is corrected before the rigid transform: ``p_corr = p_cam + G(p_cam) @ beta``,
-linear in the unknowns ``beta``:
-
-- ``rigid``: no correction (k = 0);
-- ``depth_scale``: z is multiplied by s = 1 + beta[0] (G = (0, 0, z));
-- ``ray_scale``: the whole point (its range along the viewing ray) by s = 1 + beta[0] (G = p).
-
-A constant depth offset is not offered: for a blob seen straight ahead it is the same as moving the
-camera along its z axis, which ``T_flange_cam`` already does (point data cannot tell them apart).
+A D435's depth is often off by a scale of 1-5 %. The measured blob ``p_cam`` (camera optical frame,
+metres) is corrected before the rigid transform, linearly in the unknowns ``beta``: ``p_corr =
+p_cam + G(p_cam) @ beta``. ``rigid``: none (k = 0); ``depth_scale``: z times s = 1 + beta[0] (G =
+(0, 0, z)); ``ray_scale``: the whole point times s (G = p). No constant depth offset: for a blob
+seen straight ahead it is the camera moving along its z axis, which ``T_flange_cam`` already does.
 """
 
 from __future__ import annotations
@@ -69,11 +64,6 @@ def message(model: str, beta: np.ndarray, beta_sigma: np.ndarray | None) -> Came
             "or add views"
         )
     return CameraCorrection(model=model, depth_scale=1.0 + float(beta[0]), depth_scale_sigma=sig)  # type: ignore[arg-type]
-
-
-def describe(corr: CameraCorrection) -> str:
-    """One line saying what a correction means for the user (:meth:`CameraCorrection.describe`)."""
-    return corr.describe()
 
 
 @dataclass

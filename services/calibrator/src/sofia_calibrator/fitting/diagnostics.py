@@ -6,6 +6,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from sofia_schemas.transforms import apply
 
 from ..errors import DegenerateMotion
 from . import kernels, so3
@@ -27,8 +28,7 @@ def map_to_base(T_base_flange: np.ndarray, T_flange_cam: np.ndarray, p_cam: np.n
     T_base_flange: (n, 4, 4); T_flange_cam: (4, 4); p_cam: (n, 3) camera frame, metres.
     Returns p_base (n, 3), metres.
     """
-    p_flange = p_cam @ T_flange_cam[:3, :3].T + T_flange_cam[:3, 3]
-    return np.einsum("nij,nj->ni", T_base_flange[:, :3, :3], p_flange) + T_base_flange[:, :3, 3]
+    return apply(T_base_flange, apply(T_flange_cam, p_cam))
 
 
 def fmt3(v: np.ndarray, digits: int = 1) -> str:
@@ -129,12 +129,5 @@ def rotation_spread(R_base_flange):  # type: ignore[no-untyped-def]
         for a in range(3):
             for b in range(3):
                 S[a, b] += rel[i, a] * rel[i, b]
-    ev = sym_eig(S)[0]  # singular values of rel, squared
-    for i in range(2):  # largest first
-        for j in range(2 - i):
-            if ev[j] < ev[j + 1]:
-                ev[j], ev[j + 1] = ev[j + 1], ev[j]
-    s = np.empty(3)
-    for j in range(3):
-        s[j] = math.degrees(math.sqrt(max(ev[j], 0.0))) / math.sqrt(max(n - 1, 1))
-    return s, S
+    ev = np.sort(sym_eig(S)[0])[::-1]  # singular values of rel, squared, largest first
+    return np.degrees(np.sqrt(np.maximum(ev, 0.0))) / math.sqrt(max(n - 1, 1)), S

@@ -117,10 +117,8 @@ def _jacobian(R, u, Rt_fl, G, inv_sigma, J):  # type: ignore[no-untyped-def]
 def _normal(J, w, r, H, g):  # type: ignore[no-untyped-def]
     """Fills H = J^T W J and g = J^T W r (W: each sample's weight on its three rows)."""
     P = J.shape[1]
-    for a in range(P):
-        g[a] = 0.0
-        for b in range(P):
-            H[a, b] = 0.0
+    g[:] = 0.0
+    H[:] = 0.0
     for row in range(J.shape[0]):
         wi = w[row // 3]
         ri = r[row // 3, row % 3] * wi
@@ -149,10 +147,7 @@ def levenberg_marquardt(p_cam, R_fl, t_fl, sigma, G, R, t, p_base, beta, loss, c
             q0[i, a] = -(
                 Rt_fl[i, a, 0] * t_fl[i, 0] + Rt_fl[i, a, 1] * t_fl[i, 1] + Rt_fl[i, a, 2] * t_fl[i, 2]
             )
-    inv_sigma = np.empty((n, 3))
-    for i in range(n):
-        for a in range(3):
-            inv_sigma[i, a] = 1.0 / sigma[i, a]
+    inv_sigma = 1.0 / sigma
     u, r, w = np.empty((n, 3)), np.empty((n, 3)), np.empty(n)
     u_new, r_new, w_new = np.empty((n, 3)), np.empty((n, 3)), np.empty(n)
     J, H, Hw, A = np.empty((3 * n, P)), np.empty((P, P)), np.empty((P, P)), np.empty((P, P))
@@ -169,30 +164,21 @@ def levenberg_marquardt(p_cam, R_fl, t_fl, sigma, G, R, t, p_base, beta, loss, c
     while it < max_iter and not converged:
         it += 1
         if loss == 0:  # g = J^T r already
-            for a in range(P):
-                for b in range(P):
-                    Hw[a, b] = H[a, b]
+            Hw[:] = H
         else:
             _normal(J, w, r, Hw, g)
-        for a in range(P):
-            minus_g[a] = -g[a]
+        minus_g[:] = -g
         while True:
+            A[:] = Hw
             for a in range(P):
-                for b in range(P):
-                    A[a, b] = Hw[a, b]
                 A[a, a] += lam * (Hw[a, a] + 1e-12)
             dx = solve_vector(A, minus_g)
-            decrement = 0.0  # Gauss-Newton decrement: the cost decrease the step promises
-            for a in range(P):
-                decrement -= g[a] * dx[a]
+            decrement = -(g * dx).sum()  # Gauss-Newton decrement: the cost decrease the step promises
             if decrement <= tol * max(cost, 1e-12):
                 converged = True
                 break
             R_new = matmul3(R, exp_so3(dx[0], dx[1], dx[2]))
-            for a in range(3):
-                t_new[a], p_new[a] = t[a] + dx[3 + a], p_base[a] + dx[6 + a]
-            for a in range(k):
-                b_new[a] = beta[a] + dx[9 + a]
+            t_new[:], p_new[:], b_new[:] = t + dx[3:6], p_base + dx[6:9], beta + dx[9:]
             cost_new = _evaluate(
                 R_new, t_new, p_new, b_new, Rt_fl, q0, p_cam, G, inv_sigma, loss, c, u_new, r_new, w_new
             )
@@ -234,12 +220,8 @@ def gauss_newton_steps(J_ref, errors, sigma_ref, sigma, G, extra):  # type: igno
     P = 9 + K
     M, g_all = np.empty((P, P)), np.empty(P)
     _normal(J, np.ones(m), r.reshape(m, 3), M, g_all)
-    rr = 0.0
-    for row in range(3 * m):
-        rr += r[row] * r[row]
-    kmax = 1
-    for b in range(nb):
-        kmax = max(kmax, extra[b])
+    rr = (r * r).sum()
+    kmax = max(1, extra.max())
     chi2, dx = np.empty(nb), np.empty((nb, 9))
     beta, cov9, beta_sigma = np.zeros((nb, kmax)), np.empty((nb, 9, 9)), np.zeros((nb, kmax))
     cols = np.empty(P, dtype=np.int64)
@@ -249,11 +231,8 @@ def gauss_newton_steps(J_ref, errors, sigma_ref, sigma, G, extra):  # type: igno
         for j in range(9 + k):
             cols[j] = j if j < 9 else end + j - 9
         end += k
-        Mb, g = np.empty((9 + k, 9 + k)), np.empty(9 + k)
-        for i in range(9 + k):
-            g[i] = g_all[cols[i]]
-            for j in range(9 + k):
-                Mb[i, j] = M[cols[i], cols[j]]
+        used = cols[: 9 + k]  # this model's unknowns among all the columns
+        Mb, g = M[used][:, used], g_all[used]
         C = inverse(Mb)
         step = np.empty(9 + k)
         c2 = rr
@@ -266,10 +245,8 @@ def gauss_newton_steps(J_ref, errors, sigma_ref, sigma, G, extra):  # type: igno
         chi2[b] = c2
         dof = 3 * m - 9 - k
         s2 = c2 / dof if dof > 0 else 1.0
-        for i in range(9):
-            dx[b, i] = step[i]
-            for j in range(9):
-                cov9[b, i, j] = C[i, j] * s2
+        dx[b] = step[:9]
+        cov9[b] = C[:9, :9] * s2
         for j in range(k):
             beta[b, j] = step[9 + j]
             beta_sigma[b, j] = math.sqrt(max(C[9 + j, 9 + j] * s2, 0.0))

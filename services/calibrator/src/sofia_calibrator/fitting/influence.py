@@ -64,8 +64,7 @@ def _influence(J, r, JtJ):  # type: ignore[no-untyped-def]
                     h += JC[3 * i + a, c] * J[3 * i + b, c]
                 A[a, b] = (1.0 + 1e-12 if a == b else 0.0) - h  # I nudged so that I - H_ii stays invertible
         x = solve3(A, r[i])
-        for a in range(3):
-            d[i, a] = x[a]
+        d[i] = x
         q[i] = r[i, 0] * d[i, 0] + r[i, 1] * d[i, 1] + r[i, 2] * d[i, 2]
         for a in range(3):
             for c in range(p):

@@ -1,13 +1,9 @@
 """Compiled building blocks (numba): small dense symmetric solves and the check of the poses.
 
-A calibration solves systems of 9-15 unknowns over tens of samples, where each numpy call costs
-more than its arithmetic: the loops here, in :mod:`sofia_calibrator.fitting.fit_kernels` and beside their
-expressions elsewhere (SO(3) in :mod:`~sofia_calibrator.fitting.so3`, the noise model, the hat matrix, the
-flange motion) run without returning to Python, and without LAPACK (quick to compile). They are
-compiled for C-contiguous, writeable float64 arrays (:func:`c_array` makes them so), cached beside
-the sources (``cache=True``; ``~/.cache/numba`` when that is read-only) and compiled ahead of the
-first calibration by :func:`sofia_calibrator.fitting.warm.warm_kernels` (``scripts/install.sh``,
-the calibrator's image).
+A calibration solves systems of 9-15 unknowns over tens of samples, where each numpy call costs more
+than its arithmetic; these loops run without LAPACK (quick to compile), for C-contiguous writeable
+float64 arrays (:func:`c_array`), cached (``cache=True``) and compiled ahead of the first calibration
+by :func:`sofia_calibrator.fitting.warm.warm_kernels` (``scripts/install.sh``, the image).
 """
 
 from __future__ import annotations
@@ -67,10 +63,7 @@ def sym_eig(A):  # type: ignore[no-untyped-def]
     Jacobi rotations until the off-diagonal part is below rounding (no LAPACK: fast to compile)."""
     p = A.shape[0]
     a, V = A.copy(), np.eye(p)
-    scale = 0.0
-    for i in range(p):
-        for j in range(p):
-            scale += a[i, j] * a[i, j]
+    scale = (a * a).sum()
     for _ in range(60):
         off = 0.0
         for i in range(p):
@@ -96,10 +89,7 @@ def sym_eig(A):  # type: ignore[no-untyped-def]
                 for k in range(p):
                     vki, vkj = V[k, i], V[k, j]
                     V[k, i], V[k, j] = c * vki - sn * vkj, sn * vki + c * vkj
-    ev = np.empty(p)
-    for i in range(p):
-        ev[i] = a[i, i]
-    return ev, V
+    return np.diag(a).copy(), V
 
 
 @jit
@@ -108,9 +98,7 @@ def pinv_solve(A, B, rcond):  # type: ignore[no-untyped-def]
     magnitude) dropped: numpy's ``pinv`` (rcond 1e-15) and ``lstsq`` (rcond eps p) for such an A."""
     ev, V = sym_eig(A)
     p, k = B.shape
-    top = 0.0
-    for i in range(p):
-        top = max(top, abs(ev[i]))
+    top = np.abs(ev).max()
     X = np.zeros((p, k))
     for i in range(p):
         if abs(ev[i]) <= rcond * top:
@@ -136,16 +124,11 @@ def inverse(A):  # type: ignore[no-untyped-def]
 def solve_vector(A, b):  # type: ignore[no-untyped-def]
     """x with A x = b, (p, p) symmetric A: Cholesky, least squares when A is not positive definite."""
     p = b.shape[0]
-    B = np.empty((p, 1))
-    for i in range(p):
-        B[i, 0] = b[i]
+    B = b.copy().reshape((p, 1))
     X, ok = cholesky_solve(A, B)
     if not ok:
         X = pinv_solve(A, B, EPS * p)
-    x = np.empty(p)
-    for i in range(p):
-        x[i] = X[i, 0]
-    return x
+    return X.reshape(p)
 
 
 @jit

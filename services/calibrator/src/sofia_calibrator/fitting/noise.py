@@ -1,9 +1,7 @@
-"""Noise model of a blob position measured by a D435-like RGB-D camera.
-
-Depth noise grows with depth squared (stereo disparity error), lateral noise linearly with depth
-(sub-pixel error of the blob centre). Both are expressed per camera-frame axis. Real samples also carry robot positioning and blob
-extraction errors, roughly isotropic: :class:`NoiseModel` adds such a component, estimated from the
-residuals.
+"""Noise model of a blob position measured by a D435-like RGB-D camera, per camera-frame axis:
+depth noise grows with depth squared (stereo disparity), lateral noise linearly with depth
+(sub-pixel error of the blob centre). :class:`NoiseModel` adds the robot's and the blob
+extraction's roughly isotropic errors as one component estimated from the residuals.
 """
 
 from __future__ import annotations
@@ -23,26 +21,22 @@ FLOOR_M = 1e-4
 ISOTROPIC_PRIOR_M = 1e-3  # starting value of the isotropic component before it is estimated
 
 
-def camera_sigma(
-    p_cam: np.ndarray,
-    depth_coeff_per_m: float = DEPTH_COEFF_PER_M,
-    lateral_coeff: float = LATERAL_COEFF,
-) -> np.ndarray:
+def camera_sigma(p_cam: np.ndarray) -> np.ndarray:
     """1-sigma noise of blob positions per camera axis.
 
     p_cam: (n, 3) float, camera optical frame (z forward), metres.
     Returns (n, 3) float metres: (lateral, lateral, depth) = (c z, c z, k z^2), floored at 0.1 mm.
     """
-    return _camera_sigma(c_array(p_cam), float(depth_coeff_per_m), float(lateral_coeff))  # type: ignore[no-any-return]
+    return _camera_sigma(c_array(p_cam))  # type: ignore[no-any-return]
 
 
 @jit
-def _camera_sigma(p_cam, depth_coeff_per_m, lateral_coeff):  # type: ignore[no-untyped-def]
+def _camera_sigma(p_cam):  # type: ignore[no-untyped-def]
     out = np.empty((p_cam.shape[0], 3))
     for i in range(p_cam.shape[0]):
         z = abs(p_cam[i, 2])
-        out[i, 0] = out[i, 1] = max(lateral_coeff * z, FLOOR_M)
-        out[i, 2] = max(depth_coeff_per_m * z * z, FLOOR_M)
+        out[i, 0] = out[i, 1] = max(LATERAL_COEFF * z, FLOOR_M)
+        out[i, 2] = max(DEPTH_COEFF_PER_M * z * z, FLOOR_M)
     return out
 
 

@@ -1,15 +1,11 @@
 """A depth scale known from an earlier calibration of the same camera, used as a Gaussian prior.
 
-A D435's depth-scale error belongs to the camera (its stereo calibration), not to the mount, so a
-lab that re-mounts a camera and calibrates again already knows it. On a small set the data alone
-cannot always tell a 5 % depth error from noise: the F-test keeps the rigid model, and a scale
-fitted without a test costs accuracy when the depth is right (measured in
-``docs/how-to/calibration-targets.md``). With the earlier calibration's scale as a prior the
-depth-scale model is fitted with one more observation, ``beta ~ N(scale - 1, sigma^2 + drift^2)``.
-
-The fit is the data's depth-scale optimum moved by one Gauss-Newton step of the prior (exact for
-the model, which is linear in beta), then refined with beta held; its information matrix holds the
-prior, so the covariance, leave-one-out and outlier tests count it.
+A D435's depth-scale error belongs to the camera, not to the mount; on a small set the data alone
+cannot always tell a 5 % error from noise (measured in ``docs/how-to/calibration-targets.md``).
+The depth-scale model is then fitted with one more observation, ``beta ~ N(scale - 1, sigma^2 +
+drift^2)``: the data's optimum moved by one Gauss-Newton step of the prior (exact, the model is
+linear in beta), refined with beta held; its information matrix holds the prior, so the
+covariance, leave-one-out and outlier tests count it.
 """
 
 from __future__ import annotations

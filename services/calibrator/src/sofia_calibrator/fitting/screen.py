@@ -1,14 +1,12 @@
 """Which samples may be called outliers: a robust screen before the leave-one-out test.
 
-The studentized leave-one-out test (:mod:`sofia_calibrator.fitting.influence`) assumes Gaussian noise of
-the model's shape. Real noise has heavier tails and another shape (depth noise larger than the
-model's), and then good samples fail that test: 51 % of sets at n = 50 under Student-t(3) noise,
-25 % with the depth noise 3x the model. A sample may only be removed when it is also a gross
-error of a robust fit (Cauchy loss, no sample's residual pulls it): its whitened residual, over
-the median residual's scale, beyond the quantile of a multivariate Student-t with ``TAIL_DOF``
-degrees of freedom at the family-wise level. Measured (bench/bench_calibrator_targets.py): false
-alarms at most 1 % of sets under both noises at n = 6-50, gross outliers (10 % of the samples,
-hundreds of mm off) all still found.
+The studentized leave-one-out test (:mod:`sofia_calibrator.fitting.influence`) assumes Gaussian
+noise of the model's shape; under heavier tails good samples fail it (51 % of sets at n = 50 with
+Student-t(3) noise, 25 % with the depth noise 3x the model). A sample may only be removed when it
+is also a gross error of a robust (Cauchy) fit: its whitened residual over the median residual's
+scale beyond the multivariate Student-t (``TAIL_DOF``) quantile at the family-wise level.
+Measured (bench/bench_calibrator_targets.py): false alarms at most 1 % of sets under both noises
+at n = 6-50; gross outliers (10 % of the samples, hundreds of mm off) all still found.
 """
 
 from __future__ import annotations

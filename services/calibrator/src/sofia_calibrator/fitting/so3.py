@@ -1,13 +1,10 @@
 """The fit's own SO(3): rotation vectors to matrices and back, the nearest rotation, skew matrices.
 
-Outside compiled loops the calibrator and ``sofia_schemas.transforms`` use SciPy's ``Rotation``;
-the fit needs its own: ``exp_so3`` runs inside the compiled Levenberg-Marquardt loop and
-``log_so3`` inside the compiled motion check, where SciPy cannot be called, and from Python each
-call costs a small fraction of SciPy's. ``bench/bench_calibrator.py`` (same run, shared 2-core
-machine): exp of one rotation vector 1.0 us vs 17.7 us for
-``Rotation.from_rotvec(...).as_matrix()``, log of 11 rotations 2.0 us vs 94 us for
-``Rotation.from_matrix(...).as_rotvec()``, the nearest rotation 1.9 us vs 24 us for numpy's SVD; a
-whole default calibration of 11 samples takes 0.45 ms.
+Outside compiled loops the project uses SciPy's ``Rotation``; ``exp_so3`` and ``log_so3`` run inside
+compiled loops, where SciPy cannot be called. ``bench/bench_calibrator.py`` (same run, shared
+2-core machine): exp 1.0 us vs 17.7 us for ``Rotation.from_rotvec(...).as_matrix()``, log of 11
+rotations 2.0 us vs 94 us, the nearest rotation 1.9 us vs 24 us for numpy's SVD; a whole default
+calibration of 11 samples takes 0.45 ms.
 """
 
 from __future__ import annotations

@@ -133,7 +133,8 @@ def solve(
     sigma = np.full_like(p_cam, 1e-3) if sigma is None else _c(sigma)
 
     def from_start(R0: np.ndarray, t0: np.ndarray, p0: np.ndarray | None = None) -> Solution:
-        p0 = start_target(p_cam, R_fl, t_fl, R0, t0) if p0 is None else p0
+        if p0 is None:  # the mean of the blob mapped into the base frame through (R0, t0)
+            p0 = np.mean(np.einsum("nij,nj->ni", R_fl, p_cam @ R0.T + t0) + t_fl, axis=0)
         return refine(p_cam, R_fl, t_fl, sigma, R0, t0, p0, loss, loss_scale, model=model)
 
     R, t, p_base = linear_init(p_cam, R_fl, t_fl, (3.0 / sigma.sum(axis=1)) ** 2)  # 1 / mean sigma^2
@@ -142,9 +143,8 @@ def solve(
         sols.append(from_start(T_flange_cam_guess[:3, :3], T_flange_cam_guess[:3, 3]))
     ok = [plausible(s) for s in sols]
     if len(p_cam) <= MIN_LINEAR_SAMPLES or not any(ok):
-        cube = cube_rotations()
-        best = np.argsort(_rotation_only_costs(p_cam, R_fl, t_fl, cube))[:MULTI_STARTS]
-        more = [from_start(R0, np.zeros(3)) for R0 in cube[best]]
+        best = np.argsort(_rotation_only_costs(p_cam, R_fl, t_fl, _CUBE))[:MULTI_STARTS]
+        more = [from_start(R0, np.zeros(3)) for R0 in _CUBE[best]]
         sols, ok = sols + more, ok + [plausible(s) for s in more]
     return sols[min(range(len(sols)), key=lambda i: (not ok[i], sols[i].cost))]  # a plausible camera first
 
@@ -165,18 +165,5 @@ def _rotation_only_costs(
     return np.asarray(np.einsum("mi,mi->m", resid, resid))
 
 
-def start_target(
-    p_cam: np.ndarray, R_base_flange: np.ndarray, t_base_flange: np.ndarray, R: np.ndarray, t: np.ndarray
-) -> np.ndarray:
-    """(3,) mean of the blob mapped into the base frame through (R, t) = T_flange_cam."""
-    return np.asarray(
-        np.mean(np.einsum("nij,nj->ni", R_base_flange, p_cam @ R.T + t) + t_base_flange, axis=0)
-    )
-
-
-def cube_rotations() -> np.ndarray:
-    """(24, 3, 3) the rotations of the cube (SciPy's octahedral group): well-spread starting rotations."""
-    return _CUBE.copy()
-
-
-_CUBE = Rotation.create_group("O").as_matrix().round()  # entries exactly 0 and +-1
+# (24, 3, 3) the rotations of the cube (SciPy's octahedral group), entries exactly 0 and +-1
+_CUBE = Rotation.create_group("O").as_matrix().round()

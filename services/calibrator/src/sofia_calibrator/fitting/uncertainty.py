@@ -1,22 +1,16 @@
 """The reported uncertainty of a fit: the noise per camera axis, and the correction models' spread.
 
-Two effects made the Jacobian's covariance (one noise level for every axis, the other models
-weighted by an information criterion) miss its coverage target under noise the solver does not
-assume (measured with ``bench/bench_calibrator_targets.py``'s problems, 2000 sets per cell):
+The Jacobian's covariance (one noise level, the other models weighted by an information criterion)
+missed its coverage target under noise the solver does not assume (``bench/bench_calibrator_targets.py``,
+2000 sets per cell):
 
-- **Noise of another shape.** With the camera's depth noise 3x its model, one estimated level
-  spreads the depth residuals over the lateral axes too: the translation 1-sigma covered 74-75 %
-  eye-in-hand (target 62-74 %) and the 2-sigma 91-92 % eye-to-hand (target 92-98 %).
-  :func:`parameter_covariance` estimates the level of the lateral (x, y) and depth (z) camera axes
-  separately from the residuals and propagates that noise through the fit's weights (a sandwich
-  covariance); the estimate itself is unchanged.
-- **A correction the test did not keep.** Eye-to-hand, the target moves little in depth, so a 5 %
-  depth-scale error is hard to tell from noise (kept rigid in 3 of 4 sets of 6 samples) and shifts
-  the camera by about 40 mm along its axis: 50-57 % within 1-sigma at n = 6 and 11. Information-
-  criterion weights gave the scale too little weight when its evidence was moderate and too much
-  when it was absent. :func:`model_weights` counts a correction as plausible once the likelihood
-  ratio against the rigid model passes its 5 % critical value, and its distance to the chosen fit
-  1.5 times: when the test keeps the rigid model, the scale's estimate tends to have come out small.
+- depth noise 3x its model: 74-75 % within 1-sigma eye-in-hand (target 62-74 %), 91-92 % within
+  2-sigma eye-to-hand (target 92-98 %). :func:`parameter_covariance` estimates the lateral (x, y)
+  and depth (z) noise levels separately and propagates them through the fit's weights (sandwich).
+- a 5 % depth-scale error the test did not keep (eye-to-hand, 3 of 4 sets of 6 samples; the camera
+  then moves about 40 mm along its axis): 50-57 % within 1-sigma at n = 6 and 11.
+  :func:`model_weights` counts a correction once its likelihood ratio against rigid passes its 5 %
+  critical value, and its distance to the chosen fit 1.5 times.
 """
 
 from __future__ import annotations
@@ -84,17 +78,13 @@ def parameter_covariance(sol: Solution, noise: NoiseModel, idx: np.ndarray) -> n
     return np.asarray(C @ M @ C)
 
 
-def likelihood_ratio(chi2_rigid: float, chi2_model: float, n_obs: int) -> float:
-    """The likelihood-ratio statistic of a correction against the rigid model, the noise level
-    unknown: n_obs ln(chi2_rigid / chi2_model) (chi-square values in the same noise units)."""
-    return n_obs * math.log(max(chi2_rigid, 1e-300) / max(chi2_model, 1e-300))
-
-
 def model_weights(chi2s: list[float], n_obs: int) -> list[float]:
     """Weights of the candidate models (``chi2s[0]`` rigid, then the corrections) in the reported
     covariance: uniform over the corrections whose likelihood ratio against rigid exceeds
-    ``PLAUSIBLE_LR``, else all on the rigid model."""
-    plausible = [b > 0 and likelihood_ratio(chi2s[0], c, n_obs) > PLAUSIBLE_LR for b, c in enumerate(chi2s)]
+    ``PLAUSIBLE_LR``, else all on the rigid model. The ratio, the noise level unknown:
+    n_obs ln(chi2_rigid / chi2_model)."""
+    lr = [n_obs * math.log(max(chi2s[0], 1e-300) / max(c, 1e-300)) for c in chi2s]
+    plausible = [b > 0 and r > PLAUSIBLE_LR for b, r in enumerate(lr)]
     if not any(plausible):
         plausible[0] = True
     return [float(p) / sum(plausible) for p in plausible]

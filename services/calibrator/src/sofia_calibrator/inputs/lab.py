@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import re
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -85,8 +86,13 @@ def read_tfs(path: str | Path) -> np.ndarray:
                     path, None, f"sample {k}: {section} needs {list(axes)}, got {sorted(got or [])}"
                 )
             out[k] = [got[a] for a in axes]
+    return parsed(path, make_transform, t, q)
+
+
+def parsed(path: Path, build: Callable[..., np.ndarray], *args: np.ndarray) -> np.ndarray:
+    """``build(*args)`` (the transforms of parsed numbers), its ValueError a ParseError naming ``path``."""
     try:
-        return make_transform(t, q)
+        return np.asarray(build(*args))
     except ValueError as e:
         raise ParseError(path, None, str(e)) from None
 

@@ -1,7 +1,6 @@
-"""Calibration samples from an MCAP recording: blob observations (or camera clouds, extracting
-the blob or a coloured ball) paired with the recorded flange
-poses. A ball of unknown radius: every paired view's centre is refitted with one radius shared by
-all of them (:func:`~sofia_calibrator.targets.sphere_shared.fit_shared`)."""
+"""Calibration samples from an MCAP recording: blob observations (or camera clouds, extracting the
+blob or a coloured ball) paired with the recorded flange poses; a ball of unknown radius gets one
+radius shared by every paired view (:func:`~sofia_calibrator.targets.sphere_shared.fit_shared`)."""
 
 from __future__ import annotations
 
@@ -15,9 +14,9 @@ from sofia_schemas.keys import TOPIC_BLOB, TOPIC_CAMERA_POINTS, TOPIC_FLANGE_POS
 
 from ..errors import CalibrationError, InputMismatch
 from ..pairing import NotPaired, PairingOptions, PoseBuffer
+from ..targets.ball import CLOUD_TARGETS, find_target
 
 log = logging.getLogger(__name__)
-CLOUD_TARGETS = ("blob", "ball")
 
 
 @dataclass
@@ -62,7 +61,7 @@ def read_mcap(
                         f"cloud on {cloud_topic!r} has no rgb field: the {target} cannot be found"
                     )
                 shape = (cloud.height, cloud.width, 3)
-                p_cam, segment = _find(target, radius_m, xyz.reshape(shape), rgb.reshape(shape))
+                p_cam, _, segment = find_target(target, xyz.reshape(shape), rgb.reshape(shape), radius_m)
             except CalibrationError as e:
                 rejected.append(f"cloud at {cloud.stamp_ns} ns: {e}")
                 continue
@@ -95,17 +94,3 @@ def read_mcap(
         spheres = fit_shared([v for v in views if v is not None])
         p, radius = [s.p_cam for s in spheres], spheres[0].radius_m
     return McapSamples(np.array(p), np.array(T), stamps, rejected, radius)
-
-
-def _find(
-    target: str, radius_m: float | None, points_cam: np.ndarray, rgb: np.ndarray
-) -> tuple[np.ndarray, tuple[np.ndarray, np.ndarray, float] | None]:
-    """(p_cam (3,), the ball's segment or None for a blob) of the target in an organized cloud."""
-    if target == "ball":
-        from ..targets.ball import find_ball
-
-        ball = find_ball(points_cam, rgb, radius_m)
-        return ball.p_cam, ball.segment
-    from ..blob import find_blob
-
-    return find_blob(points_cam, rgb).p_cam, None

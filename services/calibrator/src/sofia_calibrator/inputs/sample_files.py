@@ -20,7 +20,7 @@ from sofia_schemas.kinematics import panda_fk
 from sofia_schemas.transforms import make_transform
 
 from ..errors import ParseError
-from .lab import number_lines
+from .lab import number_lines, parsed
 
 POSE_COLUMNS = ("tx", "ty", "tz", "qx", "qy", "qz", "qw")
 JOINT_COLUMNS = tuple(f"q{i}" for i in range(1, 8))
@@ -37,20 +37,6 @@ def _floats(path: Path, where: int | None, values: Any, n: int, what: str) -> np
     if not np.all(np.isfinite(v)):
         raise ParseError(path, where, f"{what} has non-finite values: {v.tolist()}")
     return v
-
-
-def _poses(path: Path, t: np.ndarray, q: np.ndarray) -> np.ndarray:
-    try:
-        return make_transform(t, q)
-    except ValueError as e:
-        raise ParseError(path, None, str(e)) from None
-
-
-def _joints(path: Path, q: np.ndarray) -> np.ndarray:
-    try:
-        return np.asarray(panda_fk(q))
-    except ValueError as e:
-        raise ParseError(path, None, str(e)) from None
 
 
 def read_csv(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
@@ -75,11 +61,11 @@ def read_csv(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
         v = np.array(
             [_floats(path, i + 2, [r[c] for c in POSE_COLUMNS], 7, "pose") for i, r in enumerate(rows)]
         )
-        return p, _poses(path, v[:, :3], v[:, 3:])
+        return p, parsed(path, make_transform, v[:, :3], v[:, 3:])
     q = np.array(
         [_floats(path, i + 2, [r[c] for c in JOINT_COLUMNS], 7, "joints") for i, r in enumerate(rows)]
     )
-    return p, _joints(path, q)
+    return p, parsed(path, panda_fk, q)
 
 
 def read_json(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
@@ -106,14 +92,18 @@ def read_json(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
             raise ParseError(path, None, f"sample {k} needs 'translation' + 'rotation_xyzw' or 'q'")
     if joints and t:
         raise ParseError(path, None, "mix of joint ('q') and pose samples: use one kind per file")
-    T = _joints(path, np.array(joints)) if joints else _poses(path, np.array(t), np.array(q))
+    T = (
+        parsed(path, panda_fk, np.array(joints))
+        if joints
+        else parsed(path, make_transform, np.array(t), np.array(q))
+    )
     return np.array(p), T
 
 
 def read_joints(path: str | Path) -> np.ndarray:
     """T_base_flange (n, 4, 4) from a file of Panda joint positions: 7 numbers per line, radians."""
     names = tuple(f"joint q{k}" for k in range(1, 8))
-    return _joints(Path(path), number_lines(Path(path), names, "q1..q7", "joint positions"))
+    return parsed(Path(path), panda_fk, number_lines(Path(path), names, "q1..q7", "joint positions"))
 
 
 def read_samples(path: str | Path) -> tuple[np.ndarray, np.ndarray]:

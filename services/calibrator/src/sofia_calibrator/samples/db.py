@@ -1,11 +1,10 @@
 """The calibrator's sample database (``samples.db``): SQLite through the standard library.
 
-WAL journal, ``synchronous=FULL``: a change is durable when its transaction commits, and each
-acknowledged operation is one transaction. Ids come from an ``AUTOINCREMENT`` key, so an id is
-never given twice, not even after the sample was removed, the store reset, or a crash. On open,
-``PRAGMA integrity_check`` runs; a database that fails it (or is not a database at all) is moved
-aside with its WAL (``samples.db.corrupt-<time>``) and a new one is started: :class:`Opened` says
-what was found, and the rows that could still be read from the damaged file.
+WAL journal, ``synchronous=FULL``, one transaction per acknowledged operation; ids from an
+``AUTOINCREMENT`` key are never given twice (removal, reset, crash). On open ``PRAGMA
+integrity_check`` runs; a database that fails it (or is not one) is moved aside with its WAL
+(``samples.db.corrupt-<time>``) and a new one started: :class:`Opened` says what was found and
+holds the rows still readable from the damaged file.
 """
 
 from __future__ import annotations

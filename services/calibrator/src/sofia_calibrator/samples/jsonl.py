@@ -1,8 +1,6 @@
-"""Reading a JSONL sample log (``samples.jsonl``, the format before the SQLite database), for its
-import on the first start with :mod:`.sample_db`.
-
-A torn tail is cut off and kept aside, each damaged line is skipped, kept aside, counted and named
-in a warning; the rest loads (see :mod:`.sample_log` for the format and the side files).
+"""Reading a JSONL sample log (``samples.jsonl``, before the SQLite database) for its import
+(:mod:`.log`: format and side files): a torn tail is cut off and kept aside; each damaged line is
+skipped, kept aside, counted and named in a warning; the rest loads.
 """
 
 from __future__ import annotations
@@ -45,16 +43,16 @@ class JsonlLog:
             log.warning("%s: cut a torn last line of %d bytes (kept in %s.torn)", self.path, self.torn_bytes,
                         self.path)  # fmt: skip
         seen_checked = False
-        for line in lines:
-            if not line.raw.strip():
+        for number, raw in lines:
+            if not raw.strip():
                 continue
             try:
-                entry, checked = decode(line.raw)
+                entry, checked = decode(raw)
                 if seen_checked and not checked:
                     raise ValueError("no checksum, after lines with one")
                 self._apply(entry)
             except Exception as e:  # any damage (bad bytes, overflow, deep nesting): skip this line only
-                self._skip(Damaged(line.number, line.raw, f"{type(e).__name__}: {short(str(e))}"))
+                self._skip(Damaged(number, raw, f"{type(e).__name__}: {short(str(e))}"))
                 continue
             seen_checked |= checked
             self.unchecked += not checked

@@ -1,14 +1,9 @@
-"""The JSONL sample log of older versions (``samples.jsonl``): its format and its recovery, for
-the import into the sample database (:mod:`.sample_import`).
+"""The JSONL sample log of older versions (``samples.jsonl``): format and recovery, for its import.
 
-One record per line: ``{"crc32":"1a2b3c4d",<the record's members>}`` + newline, where the CRC-32
-covers the record as written without it (``{`` + the rest of the line), so any damaged byte is
-detected and the line stays plain JSON. Lines without the prefix come from logs written before
-checksums: they are read, and counted as unchecked. A record counts only with its newline: bytes
-after the last newline are a torn write, never acknowledged.
-
-Side files beside the log keep what recovery set aside: ``samples.jsonl.torn`` (cut tails,
-appended) and ``samples.jsonl.damaged`` (a copy of the damaged lines, rewritten on each start).
+One record per line: ``{"crc32":"1a2b3c4d",<the record's members>}`` + newline, the CRC-32 over the
+record without it (``{`` + the rest of the line); lines without the prefix (older logs) are read
+unchecked. Bytes after the last newline are a torn write, never acknowledged. Side files:
+``samples.jsonl.torn`` (cut tails, appended) and ``samples.jsonl.damaged`` (the damaged lines).
 """
 
 from __future__ import annotations
@@ -53,14 +48,6 @@ def decode(raw: bytes) -> tuple[dict[str, Any], bool]:
 
 
 @dataclass
-class Line:
-    """One complete line of the log: 1-based ``number`` and bytes without the newline."""
-
-    number: int
-    raw: bytes
-
-
-@dataclass
 class Damaged:
     """A line that could not be applied, why, and what it seems to have been."""
 
@@ -80,8 +67,9 @@ class Damaged:
         return int(m.group(1)) if m and self.op == "add" else None
 
 
-def recover(path: Path) -> list[Line]:
-    """The complete lines of the log at ``path``; a torn tail is cut off and kept in a side file."""
+def recover(path: Path) -> list[tuple[int, bytes]]:
+    """The complete lines of the log at ``path`` as (1-based number, bytes without the newline); a
+    torn tail is cut off and kept in a side file."""
     data = path.read_bytes()
     end = data.rfind(b"\n") + 1
     if end < len(data):
@@ -94,7 +82,7 @@ def recover(path: Path) -> list[Line]:
         with path.open("r+b") as f:
             f.truncate(end)
             os.fsync(f.fileno())
-    return [Line(i, raw) for i, raw in enumerate(data[:end].split(b"\n")[:-1], start=1)]
+    return list(enumerate(data[:end].split(b"\n")[:-1], start=1))
 
 
 def keep_damaged(path: Path, damaged: list[Damaged]) -> Path:

@@ -1,12 +1,10 @@
-"""The calibrator's samples, kept in an SQLite database (``samples.db``, see :mod:`.sample_db`).
+"""The calibrator's samples, kept in an SQLite database (``samples.db``, see :mod:`.db`).
 
-Every acknowledged change (add, remove, reset) is one committed transaction; a refused or failed
-one changes nothing, and a failed write shows in :meth:`SampleStore.problems` until a write
-succeeds. Ids are never given twice: SQLite's ``AUTOINCREMENT`` within the database, and a bound
-reserved in ``samples.db.ids`` (a block at a time) should the database itself be lost. On the first start beside a JSONL log of an older version
-(``samples.jsonl``), its samples are imported with their ids and the log is renamed
-``samples.jsonl.imported``. A damaged database is kept aside and what could be read from it is
-loaded; every such event stays in the status until the next reset.
+Every acknowledged change (add, remove, reset) is one committed transaction; a failed write shows in
+:meth:`SampleStore.problems` until a write succeeds. Ids are never given twice: ``AUTOINCREMENT``,
+and a bound reserved in ``samples.db.ids`` (a block at a time) should the database be lost. A JSONL
+log of an older version (``samples.jsonl``) is imported once, then renamed ``.imported``. A damaged
+database is kept aside, what could be read from it loaded, and noted in the status until a reset.
 """
 
 from __future__ import annotations

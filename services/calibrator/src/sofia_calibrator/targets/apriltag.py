@@ -1,12 +1,7 @@
-"""AprilTag target through OpenCV's ``aruco`` module (its AprilTag dictionaries): the tag's pose
-per view, and rendered views for tests.
-
-Each view's tag (``cv2.aruco.ArucoDetector`` with an AprilTag dictionary and AprilTag corner
-refinement) gives its four corners; ``cv2.solvePnP`` with ``SOLVEPNP_IPPE`` (planar) on the tag's
-known side gives T_cam_tag, which goes to the pose-target solver
-(:func:`sofia_calibrator.targets.poses.hand_eye_from_poses`), as a ChArUco board's pose does.
-Frame of the tag: origin at its centre, x right, y down (as in the image of a tag seen face on),
-z into the tag.
+"""AprilTag target through OpenCV's ``aruco`` module: each view's T_cam_tag by ``cv2.solvePnP``
+(``SOLVEPNP_IPPE``) on the tag's four corners (``cv2.aruco.ArucoDetector``, AprilTag dictionary and
+corner refinement), for the pose-target solver as a board's pose; and rendered views for tests.
+The tag's frame: origin at its centre, x right, y down (a tag seen face on), z into the tag.
 """
 
 from __future__ import annotations

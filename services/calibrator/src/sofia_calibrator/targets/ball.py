@@ -1,12 +1,9 @@
 """A coloured ball in an organized RGB-D frame: its pixels by colour, its centre by a sphere fit.
 
-The ball's pixels are the largest connected region of strongly coloured pixels (OpenCV's HSV
-conversion and ``connectedComponentsWithStats``), eroded by a pixel so that the depth edge's
-mixed pixels are left out; their points go to the sphere fit (:mod:`~sofia_calibrator.targets.sphere`:
-RANSAC, then a least-squares refinement along the viewing rays) with an inlier band matched to the D435's
-depth noise at the ball's distance. The centre is the calibration point of the view, usable
-wherever a blob's is (eye-in-hand with the ball fixed in the cell, eye-to-hand with the ball on
-the flange).
+The ball's pixels: the largest connected region of strongly coloured pixels (OpenCV HSV,
+``connectedComponentsWithStats``) eroded by a pixel (the depth edge's mixed pixels out); their
+points go to :mod:`~sofia_calibrator.targets.sphere` with an inlier band matched to the D435's
+depth noise at the ball's distance. The centre serves wherever a blob's does (either set-up).
 """
 
 from __future__ import annotations
@@ -21,6 +18,7 @@ from .sphere import DEFAULT_INLIER_M, Sphere, SphereNotFound, refine_sphere, seg
 MIN_SATURATION = 110  # OpenCV HSV saturation (0-255) above which a pixel may be the ball's
 MIN_VALUE = 50  # and brightness above which (dark pixels have unreliable hue)
 MIN_PIXELS = 40
+CLOUD_TARGETS = ("blob", "ball")  # the targets found in an organized RGB-D cloud
 NOISE_AT_HALF_M = 0.001  # the D435's depth 1-sigma at 0.5 m, growing with the square of the depth
 
 
@@ -31,7 +29,6 @@ class Ball:
     sphere: Sphere
     confidence: float  # 0..1: the share of the ball's pixels on the fitted sphere
     centroid_px: tuple[float, float]  # (u, v) of the ball's pixels
-    n_pixels: int
     # (inliers (k, 3) camera frame m, RANSAC centre (3,), radius): the view's segment, for one
     # radius fitted to several views (:func:`~sofia_calibrator.targets.sphere_shared.fit_shared`)
     segment: tuple[np.ndarray, np.ndarray, float]
@@ -83,5 +80,18 @@ def find_ball(points_cam: np.ndarray, rgb: np.ndarray, radius_m: float | None = 
     inliers, centre, radius = segment
     sphere = refine_sphere(inliers, centre, radius if radius_m is None else radius_m, radius_m is None)
     v, u = np.nonzero(mask)
-    return Ball(sphere, min(1.0, sphere.n_inliers / len(pts)), (float(u.mean()), float(v.mean())),
-                int(mask.sum()), segment)  # fmt: skip
+    return Ball(sphere, min(1.0, sphere.n_inliers / len(pts)), (float(u.mean()), float(v.mean())), segment)
+
+
+def find_target(
+    kind: str, points_cam: np.ndarray, rgb: np.ndarray, radius_m: float | None = None
+) -> tuple[np.ndarray, float, tuple[np.ndarray, np.ndarray, float] | None]:
+    """(p_cam (3,) camera optical frame m, confidence 0..1, the ball's segment or None for a blob)
+    of a ``kind`` (``CLOUD_TARGETS``) target in an organized cloud (:func:`find_ball`'s arguments)."""
+    if kind == "ball":
+        ball = find_ball(points_cam, rgb, radius_m)
+        return ball.p_cam, ball.confidence, ball.segment
+    from ..blob import find_blob
+
+    blob = find_blob(points_cam, rgb)
+    return blob.p_cam, blob.confidence, None

@@ -1,16 +1,12 @@
 """A ChArUco board's corners with depth: several points of known layout per view.
 
-Each view i gives the board's corners j it detects (``cv2.aruco.CharucoDetector``) and, from the
-organized cloud of that view, the 3D point at each corner's pixel (``p_cam_ij``, camera frame).
-With the board's layout ``q_j`` (board frame) the model is (eye-in-hand; eye-to-hand inverts the
-flange poses, :mod:`sofia_calibrator.eye_to_hand`)::
+View i gives each detected corner j (``cv2.aruco.CharucoDetector``) its 3D point ``p_cam_ij``
+(camera frame) from the organized cloud; with the layout ``q_j`` (board frame)::
 
     p_cam_ij = X^-1 A_i^-1 Y q_j      X = T_flange_cam, A_i = T_base_flange_i, Y = T_base_board
 
-solved for X and Y by :func:`scipy.optimize.least_squares` from the pose-target fit of the same
-views (PnP board poses, :func:`sofia_calibrator.targets.poses.hand_eye_from_poses`), each point's
-residual whitened by the D435 noise model (:func:`sofia_calibrator.fitting.noise.camera_sigma`). Every
-corner of every view constrains X, so one view already constrains the rotation.
+(eye-to-hand: the flange poses inverted), solved by :func:`scipy.optimize.least_squares` from the
+pose-target fit (:func:`~.poses.hand_eye_from_poses`), residuals whitened by the D435 noise model.
 """
 
 from __future__ import annotations
@@ -23,7 +19,7 @@ from scipy.optimize import least_squares
 from ..errors import InputMismatch
 from ..fitting.noise import camera_sigma
 from .charuco import MIN_CORNERS, BoardNotFound, BoardSpec
-from .poses import PoseFit, _unpack
+from .poses import PoseFit, _unpack, covariance6
 
 DEFAULT_BOARD = BoardSpec()
 
@@ -102,11 +98,6 @@ def board_points_fit(
     X, Y = _unpack(sol.x, start.X, start.T_fixed_target)
     sol = least_squares(_residuals, np.zeros(12), args=(X, Y, *args[2:]), x_scale=0.05)  # re-anchored
     X, Y = _unpack(sol.x, X, Y)
-    dof = max(3 * len(p) - 12, 1)
-    cov = np.linalg.pinv(sol.jac.T @ sol.jac) * (2.0 * sol.cost / dof)
-    idx = [3, 4, 5, 0, 1, 2]
-    cov6 = cov[np.ix_(idx, idx)]
-    std = np.sqrt(np.maximum(cov6.diagonal(), 0.0))
     rms_m = float(np.sqrt(np.mean((sol.fun.reshape(-1, 3) / w) ** 2)))
-    return PoseFit(X, Y, rms_m, 1e3 * std[:3], np.degrees(std[3:]), cov6, f"{start.start}, then the corners with depth",
-                   start.baselines)  # fmt: skip
+    return PoseFit(X, Y, rms_m, covariance6(sol, max(3 * len(p) - 12, 1)),
+                   f"{start.start}, then the corners with depth", start.baselines)  # fmt: skip

@@ -1,10 +1,7 @@
-"""ChArUco board target through OpenCV's ``aruco`` module: detection, the board's pose per view, and
-rendered views for tests and benchmarks.
-
-Each view's ChArUco corners (``cv2.aruco.CharucoDetector``) and the board's known layout give the
-board pose T_cam_board by ``cv2.solvePnP``; the poses then go to the pose-target solver
-(:func:`sofia_calibrator.targets.poses.hand_eye_from_poses`). Depth at the corners is not used yet.
-"""
+"""ChArUco board target through OpenCV's ``aruco`` module: each view's board pose T_cam_board by
+``cv2.solvePnP`` on its ChArUco corners (``cv2.aruco.CharucoDetector``), for the pose-target solver
+(:func:`~.poses.hand_eye_from_poses`; the corners with depth: :mod:`.board_points`), and rendered
+views for tests and benchmarks."""
 
 from __future__ import annotations
 

@@ -78,9 +78,8 @@ def read_opencv_pose_pairs(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
             pairs.append((a, b))
     finally:
         fs.release()
-    return np.array([a for a, _ in pairs], dtype=np.float64), np.array(
-        [b for _, b in pairs], dtype=np.float64
-    )
+    both = np.array(pairs, dtype=np.float64)  # (n, 2, 4, 4)
+    return both[:, 0], both[:, 1]
 
 
 def read_grey_images(paths: list[str]) -> list[np.ndarray]:

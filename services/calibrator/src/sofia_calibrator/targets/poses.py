@@ -1,15 +1,12 @@
 """Plain 6-DoF target poses (a marker, a board's pose) with the flange poses: hand-eye from pose pairs.
 
-Eye-in-hand: ``T_base_target = T_base_flange_i X T_cam_target_i`` with X = T_flange_cam and the
-target fixed in the base frame. OpenCV's ``calibrateHandEye`` (Tsai, Park, Horaud, Andreff,
-Daniilidis) gives the starts and the named baseline; the result is then refined jointly over X and
-T_base_target on each view's pose discrepancy in the camera frame (target origin, metres; rotation,
-rad), each part weighted by its noise level estimated from the residuals (a first pass weighs a
-rotation as the target's ``size_m``), and the 1-sigma comes from the Jacobian. OpenCV's
-``calibrateRobotWorldHandEye`` (Shah, Li), which solves X and the target's pose together, adds two
-more starts and baselines (``RW_SHAH``, ``RW_LI``).
-Eye-to-hand is the same problem with the flange poses inverted (see
-:mod:`sofia_calibrator.eye_to_hand`): X = T_base_cam, the target fixed on the flange.
+Eye-in-hand: ``T_base_target = T_base_flange_i X T_cam_target_i``, X = T_flange_cam, the target
+fixed in the base frame (eye-to-hand: the flange poses inverted, X = T_base_cam, the target on the
+flange). OpenCV's ``calibrateHandEye`` (Tsai, Park, Horaud, Andreff, Daniilidis) and
+``calibrateRobotWorldHandEye`` (``RW_SHAH``, ``RW_LI``) give the starts and the baselines; the best
+is refined jointly over X and T_base_target on each view's pose discrepancy in the camera frame
+(origin, metres; rotation, rad), each part weighted by its noise level estimated from the residuals
+(a first pass weighs a rotation as the target's ``size_m``); the 1-sigma from the Jacobian.
 """
 
 from __future__ import annotations
@@ -17,10 +14,11 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.optimize import least_squares
+from scipy.optimize import OptimizeResult, least_squares
 from scipy.spatial.transform import Rotation
 
 from ..errors import InputMismatch, TooFewSamples
+from ..fitting.diagnostics import std_from_covariance6
 
 OPENCV_METHODS = ("TSAI", "PARK", "HORAUD", "ANDREFF", "DANIILIDIS")
 ROBOT_WORLD_METHODS = ("SHAH", "LI")  # calibrateRobotWorldHandEye: X and the target's pose together
@@ -35,11 +33,27 @@ class PoseFit:
     X: np.ndarray  # (4, 4)
     T_fixed_target: np.ndarray  # (4, 4) target in the base (eye-in-hand) or flange (eye-to-hand) frame
     rms_m: float  # RMS residual of the target's origin, per axis, metres
-    std_translation_mm: np.ndarray  # (3,) 1-sigma of X's translation
-    std_rotation_deg: np.ndarray  # (3,) about X's parent axes
     covariance6: np.ndarray  # (6, 6) of X: (t m, rot rad), parent axes (left perturbation)
     start: str  # the OpenCV method whose answer started the refinement
     baselines: dict[str, np.ndarray] = field(default_factory=dict)  # OpenCV method -> X (4, 4)
+
+    @property
+    def std_translation_mm(self) -> np.ndarray:
+        """(3,) 1-sigma of X's translation, mm."""
+        return std_from_covariance6(self.covariance6)[0]
+
+    @property
+    def std_rotation_deg(self) -> np.ndarray:
+        """(3,) 1-sigma of X's rotation about its parent axes, degrees."""
+        return std_from_covariance6(self.covariance6)[1]
+
+
+def covariance6(sol: OptimizeResult, dof: int) -> np.ndarray:
+    """(6, 6) covariance of X, (t m, rot rad about the parent axes), from a ``least_squares``
+    result whose first 6 unknowns are X's (rot, t), its noise level from the residuals over ``dof``."""
+    cov = np.linalg.pinv(sol.jac.T @ sol.jac) * (2.0 * sol.cost / dof)
+    idx = [3, 4, 5, 0, 1, 2]  # (rot, t) of X -> (t, rot about the parent axes)
+    return np.asarray(cov[np.ix_(idx, idx)])
 
 
 def _validate(T_base_flange: np.ndarray, T_cam_target: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -162,13 +176,8 @@ def hand_eye_from_poses(
         # re-anchored at the solution: the Jacobian is in its own left perturbation
         sol = least_squares(residuals, np.zeros(12), args=(X, Y, A_inv, B, w), x_scale=0.05)
     X, Y = _unpack(sol.x, X, Y)
-    s2 = 2.0 * sol.cost / dof
-    cov = np.linalg.pinv(sol.jac.T @ sol.jac) * s2
-    idx = [3, 4, 5, 0, 1, 2]  # (rot, t) of X -> (t, rot about the parent axes)
-    cov6 = cov[np.ix_(idx, idx)]
-    std = np.sqrt(np.maximum(cov6.diagonal(), 0.0))
     rms_m = float(np.sqrt(np.mean((sol.fun.reshape(-1, 2, 3)[:, 0] / w[0]) ** 2)))
-    return PoseFit(X, Y, rms_m, 1e3 * std[:3], np.degrees(std[3:]), cov6, name, base)
+    return PoseFit(X, Y, rms_m, covariance6(sol, dof), name, base)
 
 
 def consistency(

@@ -1,12 +1,10 @@
 """A sphere (ball) target found in a point cloud: its centre is the calibration point of a view.
 
-Segment and fit in one robust pass: RANSAC over minimal samples (4 points give the sphere
-through them in closed form; with a known radius, draws far from it are dropped) scored by the
-points within ``inlier_m`` of the surface, then a least-squares refinement
-(:func:`scipy.optimize.least_squares`, soft-L1 loss) of the centre and, when not given, the radius
-on the inliers, on each point's range along its viewing ray, where a depth camera's noise lies
-(:func:`ray_residuals`). The centre's per-view 1-sigma comes from the refinement's Jacobian and
-residual scale. Only the sphere's near cap is seen, so the centre is least certain along the view ray.
+RANSAC over 4-point samples (the sphere through them in closed form; with a known radius, draws
+far from it dropped), scored by the points within ``inlier_m`` of the surface; then a soft-L1
+least-squares refinement of the centre (and the radius when not given) on each inlier's range along
+its viewing ray (:func:`ray_residuals`), where a depth camera's noise lies. The centre's 1-sigma
+comes from that fit's Jacobian; only the near cap is seen, so it is largest along the view ray.
 """
 
 from __future__ import annotations

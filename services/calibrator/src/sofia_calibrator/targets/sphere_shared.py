@@ -1,20 +1,13 @@
 """One sphere of unknown radius seen in several views: the radius shared by all of them.
 
-A sphere's radius fitted in one view trades off against its centre along the view ray (only the
-near cap is seen), so per-view radii scatter and drag their centres with them. The views see the
-same ball: each view is segmented on its own (RANSAC, :func:`~.sphere.segment_sphere`), then either
-
-- ``joint``: one least-squares fit (:func:`scipy.optimize.least_squares`, soft-L1, sparse
-  Jacobian) of every centre and the one radius on all the views' inliers, along their viewing
-  rays (:func:`~.sphere.ray_residuals`), each view's residuals divided by its own RMS so that near
-  and far views weigh by their noise; or
-- ``median``: the median of the per-view fitted radii, then each centre refitted with it (the
-  joint fit's start).
-
-The default is the joint fit. On synthetic views of a 25 mm ball at 0.45-0.9 m with D435 depth
-noise (12 sets of 10 views) the centres are off by 0.10 mm RMS (joint), 0.11 mm (median) and
-0.22 mm (a radius per view; 0.10 mm with the radius given); on RegHEC's real sphere set all agree
-(1.05 mm fit RMS). ``bench/bench_calibrator_targets.py`` prints both comparisons.
+A radius fitted per view trades off against the centre along the view ray (only the near cap is
+seen). Each view is segmented on its own (:func:`~.sphere.segment_sphere`), then either ``joint``
+(default): one soft-L1 least-squares fit of every centre and the one radius along the viewing rays
+(:func:`~.sphere.ray_residuals`, sparse Jacobian), each view's residuals over its own RMS; or
+``median``: the median per-view radius, each centre refitted with it (the joint fit's start).
+Synthetic 25 mm ball at 0.45-0.9 m, D435 depth noise, 12 sets of 10 views: centre error 0.10 mm
+RMS (joint), 0.11 mm (median), 0.22 mm (a radius per view; 0.10 mm with the radius given);
+RegHEC's real sphere set: all agree (1.05 mm fit RMS). ``bench/bench_calibrator_targets.py``.
 """
 
 from __future__ import annotations

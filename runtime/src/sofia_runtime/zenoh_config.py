@@ -111,8 +111,9 @@ def wait_for_socket(
     proc: subprocess.Popen[bytes], timeout_s: float, env: dict[str, str] | None = None
 ) -> bool:
     """Wait until the process ``proc`` listens on its local socket (``<pid>-*.sock`` in
-    :func:`socket_dir`): True once it does, and at once when sessions here do not use local sockets
-    (a config file, connect endpoints, client mode); False after ``timeout_s`` or when the process has ended."""
+    :func:`socket_dir`): True once it does, and at once when sessions here do not use local
+    sockets (a config file, connect endpoints, client mode); False after ``timeout_s`` or when
+    the process has ended."""
     settings = resolve(None, env)
     if settings["config_file"] or settings["connect"] or settings["mode"] == "client":
         return True

@@ -18,7 +18,8 @@ from .poses import Q_HOME, Reach
 
 class KinematicArm:
     """An :class:`~sofia_arm.motion.ArmMotion` whose moves take no time; refuses joints outside
-    ``reach`` and, as the service does, a joint path taking ``reach``'s tool below its surface. ``clock_ns`` advances 1 s per move (the stamp of the state after it)."""
+    ``reach`` and, as the service does, a joint path taking ``reach``'s tool below its surface.
+    ``clock_ns`` advances 1 s per move (the stamp of the state after it)."""
 
     def __init__(self, q: np.ndarray = Q_HOME, reach: Reach | None = None) -> None:
         self._q = np.array(q, dtype=np.float64)

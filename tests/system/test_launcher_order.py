@@ -13,6 +13,7 @@ import os
 import uuid
 from pathlib import Path
 
+import pytest
 import zenoh
 from sofia_runtime.client import ask
 from sofia_schemas.keys import Keys
@@ -44,3 +45,15 @@ def test_the_router_listens_before_the_services_start(tmp_path: Path) -> None:
         assert status.service == "detector"
     finally:
         launcher.stop()
+
+
+def test_an_error_while_starting_stops_what_was_started(tmp_path: Path) -> None:
+    """A config file that does not exist fails the wait for the router's socket: the router already
+    started (in a session of its own, out of reach of Ctrl-C) is stopped, not left behind."""
+    env = dict(os.environ, SOFIA_ZENOH_CONFIG=str(tmp_path / "missing.json5"),
+               SOFIA_ZENOH_SOCKET_DIR=str(tmp_path / "sockets"))  # fmt: skip
+    launcher = Launcher([ServiceSpec("router", ["router"])], tmp_path / "log", "lostop", env=env)
+    with pytest.raises(FileNotFoundError, match=r"missing\.json5"):
+        launcher.start()
+    router = launcher.procs["router"]
+    assert router.popen is None and router.exits == [], "the router was not stopped"

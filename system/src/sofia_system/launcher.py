@@ -95,12 +95,16 @@ class Launcher:
         log.info("started %-10s pid %d: %s (log %s)", m.spec.name, m.popen.pid, " ".join(m.spec.args), path)
 
     def start(self) -> None:
-        """The router first, then each process once the one before listens: a session dials the local
-        sockets there as it opens, so two opening together could each miss the other's socket."""
-        for m in sorted(self.procs.values(), key=lambda m: m.spec.name != "router"):
-            self._start(m)
-            if m.popen and not wait_for_socket(m.popen, START_WAIT_S, self.env):
-                log.warning("%s: no local socket after %.0f s", m.spec.name, START_WAIT_S)
+        """The router first, then each process once the one before listens (a session dials only the
+        sockets there as it opens); an error or Ctrl-C meanwhile stops what was started."""
+        try:
+            for m in sorted(self.procs.values(), key=lambda m: m.spec.name != "router"):
+                self._start(m)
+                if m.popen and not wait_for_socket(m.popen, START_WAIT_S, self.env):
+                    log.warning("%s: no local socket after %.0f s", m.spec.name, START_WAIT_S)
+        except BaseException:
+            self.stop()
+            raise
 
     def poll(self) -> None:
         """Restart processes that exited (with back-off)."""
@@ -110,8 +114,7 @@ class Launcher:
                 if m.popen is None and now >= m.next_start:
                     self._start(m)
                 continue
-            code = m.popen.returncode
-            m.exits.append(code)
+            m.exits.append(code := m.popen.returncode)
             if m.log_file:
                 m.log_file.close()
             m.popen, m.state = None, "exited"
@@ -149,10 +152,8 @@ class Launcher:
                 continue
             try:
                 m.state = ask(session, keys.status(m.spec.status), ServiceStatus, timeout=timeout).state
-            except QueryError:
-                m.state = "no status"
-            except ValueError:
-                m.state = "bad status"
+            except (QueryError, ValueError) as e:  # silence, or a reply that is not a status
+                m.state = "no status" if isinstance(e, QueryError) else "bad status"
             m.backoff = 1.0 if m.state == "ok" else m.backoff
         return {name: m.state for name, m in self.procs.items()}
 

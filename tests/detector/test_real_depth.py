@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 from sofia_detector import detect
 from sofia_detector.depth import raised_pixels
-from sofia_detector.depth.clean import bridge, consistent_at
+from sofia_detector.depth.clean import chroma, consistent_at, join_pieces
+from sofia_detector.geometry.grid import label8
 from sofia_replay.synth.realism import RealFrame, bench_frame, make_real_frame
 from sofia_schemas import Board
 
@@ -191,18 +192,23 @@ def test_flying_pixels_removed_on_the_grid() -> None:
     assert np.array_equal(keep, near >= 2)
 
 
-def test_holes_bridged_only_by_the_objects_colour() -> None:
+def test_pieces_joined_only_across_holes_and_pieces_of_their_colour() -> None:
     seeds = np.zeros((10, 20), bool)
     seeds[3:7, 2:6] = seeds[3:7, 9:13] = True  # two pieces of one black object
+    labels, n = label8(seeds)
     invalid = np.zeros_like(seeds)
     invalid[3:7, 6:9] = True  # the hole between them
     rgb = np.full((10, 20, 3), 230, np.uint8)  # white board
     rgb[3:7, 2:13] = 25  # the black object, hole included
-    _, n = bridge(seeds, invalid, rgb, 0.25)
-    assert n == 1
+    black = chroma(np.array([[0, 0, 0], [25, 25, 25], [25, 25, 25]], np.uint8))
+    joined, n = join_pieces(labels, 2, invalid, black, 0.25, rgb)
+    assert n == 1 and joined[5, 7] == joined[5, 3] == joined[5, 10] > 0
     rgb[3:7, 6:9] = 230  # a hole in the white board's colour joins nothing
-    _, n = bridge(seeds, invalid, rgb, 0.25)
-    assert n == 2
+    assert join_pieces(labels, 2, invalid, black, 0.25, rgb)[1] == 2
+    assert join_pieces(labels, 2, invalid, black, 0.25)[1] == 1  # holes without colours: any hole
+    blue = black.copy()
+    blue[2] = chroma(np.array([30, 60, 200], np.uint8))
+    assert join_pieces(labels, 2, invalid, blue, 0.25)[1] == 2  # pieces of two colours stay apart
 
 
 def test_raised_pixels_drops_flying_pixels_and_joins_pieces_across_holes_of_their_colour() -> None:

@@ -71,12 +71,11 @@ def detect(
     cloud = as_cloud(points)
     colours = as_colours(rgb, cloud)
     head: dict[str, Any] = {"stamp_ns": stamp_ns, "frame_id": frame_id or board.frame_id, "source": source}
-    organized = cloud.ndim == 3
-    n_total = cloud.shape[0] * cloud.shape[1] if organized else cloud.shape[0]
+    n_total = cloud.size // 3
     if n_total == 0:
         return Detection(**head, status="no_board", detail="the cloud has no points")
     # unorganized: every point (subsampling an unorganized cloud can leave stripes: a flattened image)
-    fit = fit_board(cloud[:: params.stride, :: params.stride] if organized else cloud, board, params)
+    fit = fit_board(cloud[:: params.stride, :: params.stride] if cloud.ndim == 3 else cloud, board, params)
     t1 = time.perf_counter()
     timings = {"board_ms": (t1 - t0) * 1e3}
     if fit is None:

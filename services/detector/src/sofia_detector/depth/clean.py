@@ -8,12 +8,15 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.cluster.hierarchy import DisjointSet
 
 from ..geometry.compiled import jit
 from ..geometry.grid import grow, label8, max_filter, where
 from ..geometry.samples import median
 
 EIGHT = np.ones((3, 3), dtype=bool)
+AROUND = np.mgrid[-1:2, -1:2].reshape(2, 1, 9)  # (row, col) offsets of a cell's 3 x 3
+STEPS = 3  # empty cells (missing depth) a piece grows through to meet another piece of its colour
 
 
 @jit
@@ -72,11 +75,9 @@ def of_colour(px: np.ndarray, own: np.ndarray, tol: float) -> np.ndarray:
 
 def label_means(labels: np.ndarray, values: np.ndarray, n: int) -> np.ndarray:
     """(n + 1, k) float64 mean of values (m, k) per label 0..n of labels (m,) int (0 when empty)."""
-    counts = np.bincount(labels, minlength=n + 1).astype(np.float64)
-    sums = np.stack(
-        [np.bincount(labels, weights=values[:, c], minlength=n + 1) for c in range(values.shape[1])], axis=1
-    )
-    return sums / np.maximum(counts, 1.0)[:, None]  # type: ignore[no-any-return]
+    k = values.shape[1]
+    sums = np.bincount((labels[:, None] * k + np.arange(k)).ravel(), values.ravel(), (n + 1) * k)
+    return sums.reshape(n + 1, k) / np.maximum(np.bincount(labels, minlength=n + 1), 1)[:, None]  # type: ignore[no-any-return]
 
 
 def colour_distance(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -100,33 +101,46 @@ def raised_pixels(
 ) -> Raised:
     """The depth stage: pixels of c (3, h, w) float32 (z the height above the board, metres, NaN
     where missing) between ``lo`` and ``hi``, without flying pixels (:func:`consistent_at`), in
-    components joined across missing depth of their colour (:func:`bridge`; rgb (h, w, 3) uint8)."""
+    components joined across missing depth of their colour (:func:`join_pieces`; rgb (h, w, 3) uint8)."""
     with np.errstate(invalid="ignore"):
         mask = consistent_at(c, (c[2] > lo) & (c[2] < hi), delta)
-    labels, n = label8(mask) if rgb is None else bridge(mask, ~np.isfinite(c[2]), rgb, tol)
+    labels, n = label8(mask)
+    if rgb is not None and n >= 2:
+        on = labels > 0
+        mean = label_means(labels[on], chroma(rgb[on]), n)
+        labels, n = join_pieces(labels, n, ~np.isfinite(c[2]), mean, tol, rgb)
     return Raised(mask, labels, n)
 
 
-def bridge(
-    seeds: np.ndarray, invalid: np.ndarray, rgb: np.ndarray | None, tol: float, steps: int = 3
+def join_pieces(
+    labels: np.ndarray, n: int, empty: np.ndarray, mean: np.ndarray, tol: float, rgb: np.ndarray | None = None
 ) -> tuple[np.ndarray, int]:
-    """(labels (h, w) int, n): components of ``seeds`` (h, w) bool, each grown up to ``steps``
-    pixels into ``invalid`` (h, w) pixels within ``tol`` of its mean :func:`chroma` (rgb (h, w, 3)
-    uint8; None: no bridging), joined where they meet."""
-    labels, n = label8(seeds)
-    if rgb is None or n < 2 or not invalid.any():
-        return labels, n
-    on = labels > 0
-    mean = label_means(labels[on], chroma(rgb[on], np.float64), n)  # each component's mean chroma
-    rs, cs = where(invalid & grow(on, 2 * steps + 1))  # the missing pixels growth can reach
-    feats, waiting = chroma(rgb[rs, cs], np.float64), np.ones(rs.size, dtype=bool)
-    grown, joined = labels.copy(), False
-    for _ in range(steps):  # a waiting pixel joins the largest label among its 8 neighbours, if near
-        lab = np.where(waiting, max_filter(grown, 3)[rs, cs], 0)
-        if not (lab > 0).any():
+    """(labels, n'): ``labels`` (h, w) int 1..n (8-connected components) with the pieces of one colour
+    (``mean`` (n + 1, 4) :func:`chroma` of each, within ``tol``) merged that meet when each grows up
+    to :data:`STEPS` cells into ``empty`` (h, w) bool cells; into those of its colour only when
+    ``rgb`` (h, w, 3) uint8 gives them one. Grown cells keep their piece's label, 0 is off them."""
+    rs, cs = where(empty & grow(labels > 0, 2 * STEPS + 1))  # the empty cells growth can reach
+    feats = None if rgb is None else chroma(rgb[rs, cs])
+    grown = labels.copy()
+    for _ in range(STEPS):  # an empty cell joins the largest label among its 8 neighbours
+        lab = np.where(grown[rs, cs] == 0, max_filter(grown, 3)[rs, cs], 0)
+        ok = (lab > 0) if feats is None else (lab > 0) & (colour_distance(feats, mean[lab]) < tol)
+        if not ok.any():
             break
-        ok = (lab > 0) & (colour_distance(feats, mean[lab]) < tol)
         grown[rs[ok], cs[ok]] = lab[ok]
-        waiting &= ~ok
-        joined |= bool(ok.any())
-    return label8(grown > 0) if joined else (labels, n)
+    at = np.flatnonzero(grown[rs, cs])  # the grown cells: original components never touch
+    h, w = grown.shape
+    i = np.repeat(grown[rs[at], cs[at]], 9)
+    j = grown[
+        np.clip(rs[at, None] + AROUND[0], 0, h - 1), np.clip(cs[at, None] + AROUND[1], 0, w - 1)
+    ].ravel()
+    meet = (j > 0) & (i != j)
+    i, j = i[meet], j[meet]
+    same = colour_distance(mean[i], mean[j]) < tol  # pieces of one colour that meet
+    if not same.any():
+        return grown, n
+    pieces = DisjointSet(range(n + 1))
+    for a, b in set(zip(i[same].tolist(), j[same].tolist(), strict=True)):
+        pieces.merge(a, b)
+    _, roots = np.unique([pieces[k] for k in range(n + 1)], return_inverse=True)  # label 0 stays 0
+    return roots[grown], int(roots.max())

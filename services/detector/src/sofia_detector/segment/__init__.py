@@ -1,6 +1,6 @@
 """Stage 3, segmentation: the points of each object (:func:`find_objects`)."""
 
 from .find import find_objects
-from .points import Levels, ObjectPoints
+from .points import ObjectPoints
 
-__all__ = ["Levels", "ObjectPoints", "find_objects"]
+__all__ = ["ObjectPoints", "find_objects"]

@@ -1,4 +1,4 @@
-"""The points of one object, and the thresholds measured on the board of one cloud."""
+"""The points of one object."""
 
 from __future__ import annotations
 
@@ -31,20 +31,3 @@ class ObjectPoints:
         if self.rows is None or self.cols is None:
             return hull((self.b if subset is None else self.b[:, subset])[:2].T)
         return self.b[:2, boundary_points(self.rows, self.cols, self.shape, subset)].T
-
-
-def inside(xy: np.ndarray, half: np.ndarray) -> bool:
-    """True when xy (2,) lies within +-``half`` (2,) on both axes."""
-    return bool(np.all(np.abs(xy) < half))
-
-
-@dataclass(frozen=True)
-class Levels:
-    """Thresholds of one cloud (metres): heights of a coarse object pixel (seed) and of a full
-    resolution point (point); :func:`..depth.clean.consistent_at` distances at full resolution and
-    on the coarse grid."""
-
-    seed: float
-    point: float
-    delta: float
-    delta_coarse: float

@@ -11,18 +11,15 @@ from collections.abc import Iterator
 
 import numpy as np
 from scipy import ndimage
-from scipy.sparse import coo_matrix
-from scipy.sparse.csgraph import connected_components
 
-from ..depth.clean import chroma, colour_distance, label_means
-from ..geometry.grid import label8, max_filter
+from ..depth.clean import chroma, join_pieces, label_means
+from ..geometry.grid import label8
 from ..geometry.points import change_frame
 from ..params import DetectorParams
-from .points import ObjectPoints, inside
+from .points import ObjectPoints
 
 VOXEL = 0.005  # metres: a surface at a D435's pixel spacing (1-2 mm at 0.5-1 m) puts 5-25 points in one
 MIN_VOXEL_POINTS = 3
-BRIDGE_CELLS = 3  # empty cells a piece grows through to meet another piece of its colour
 
 
 def dense(b: np.ndarray, voxel: float = VOXEL, k: int = MIN_VOXEL_POINTS) -> np.ndarray:
@@ -37,40 +34,6 @@ def dense(b: np.ndarray, voxel: float = VOXEL, k: int = MIN_VOXEL_POINTS) -> np.
     return counts[inverse] >= k  # type: ignore[no-any-return]
 
 
-def _candidates(labels: np.ndarray, n: int, colour: np.ndarray, tol: float) -> list[tuple[int, int]]:
-    """Pairs (i, j) of labels 1..n of ``labels`` (h, w) of one colour (``colour`` (n + 1, 4) chroma)
-    whose bounding boxes, grown by :data:`BRIDGE_CELLS` each, meet."""
-    boxes = ndimage.find_objects(labels, max_label=n)
-    lo = np.array([[s[0].start, s[1].start] if s else [-9999, -9999] for s in boxes]) - BRIDGE_CELLS
-    hi = np.array([[s[0].stop, s[1].stop] if s else [-9999, -9999] for s in boxes]) + BRIDGE_CELLS
-    meet = np.all((lo[:, None] < hi[None]) & (lo[None] < hi[:, None]), axis=2)
-    i, j = np.nonzero(np.triu(meet, 1))
-    close = colour_distance(colour[i + 1], colour[j + 1]) < tol
-    return list(zip((i[close] + 1).tolist(), (j[close] + 1).tolist(), strict=True))
-
-
-def join_pieces(labels: np.ndarray, n: int, empty: np.ndarray, pairs: list[tuple[int, int]]) -> np.ndarray:
-    """``labels`` (h, w) int (1..n) with those ``pairs`` merged that meet when each grows up to
-    :data:`BRIDGE_CELLS` cells into ``empty`` (h, w) bool cells."""
-    grown = labels.copy()
-    for _ in range(BRIDGE_CELLS):
-        around = max_filter(grown, 3)  # the largest label among the 8 neighbours (or the cell)
-        step = empty & (grown == 0) & (around > 0)
-        if not step.any():
-            break
-        grown[step] = around[step]
-    wanted = set(pairs)
-    links = set()
-    for a, b in ((grown[:, :-1], grown[:, 1:]), (grown[:-1], grown[1:]), (grown[:-1, :-1], grown[1:, 1:]),
-                 (grown[:-1, 1:], grown[1:, :-1])):  # fmt: skip
-        meet = (a > 0) & (b > 0) & (a != b)
-        links |= {(min(i, j), max(i, j)) for i, j in zip(a[meet].tolist(), b[meet].tolist(), strict=True)}
-    i, j = np.array(sorted(links & wanted), dtype=np.intp).reshape(-1, 2).T
-    graph = coo_matrix((np.ones(i.size), (i, j)), shape=(n + 1, n + 1))
-    _, roots = connected_components(graph, directed=False)
-    return roots[labels]  # type: ignore[no-any-return]
-
-
 def unorganized_objects(
     m_plane: np.ndarray,
     T_plane_board: np.ndarray,
@@ -82,7 +45,7 @@ def unorganized_objects(
     """Objects of m_plane (3, n) float32, plane frame, metres: points more than ``point`` above
     the board on a dense surface (:func:`dense`), in cells of ``params.cell`` holding two or more,
     connected. T_plane_board: (4, 4). half: (2,) half size of the region of object centres, board
-    frame. rgb: (n, 3) uint8 or None (then no :func:`join_pieces`)."""
+    frame. rgb: (n, 3) uint8 or None (then no :func:`..depth.clean.join_pieces`)."""
     b = change_frame(m_plane, T_plane_board)
     grid_half = half + 0.06
     with np.errstate(invalid="ignore"):
@@ -101,17 +64,13 @@ def unorganized_objects(
     flat = cells(idx)
     counts = np.bincount(flat, minlength=shape[0] * shape[1]).reshape(shape)
     labels, n = label8(counts >= 2)
-    point_labels = labels.ravel()[flat]
-    if rgb is not None and n >= 2:
-        pairs = _candidates(labels, n, label_means(point_labels, chroma(rgb[idx]), n), params.colour_tol)
-        if pairs:  # cells where the cloud has no point at all: missing depth
-            seen = np.bincount(cells(np.flatnonzero(region)), minlength=counts.size).reshape(shape) > 0
-            point_labels = join_pieces(labels, n, ~seen, pairs).ravel()[flat]
-    order = np.argsort(point_labels, kind="stable")
-    bounds = np.searchsorted(point_labels[order], np.arange(1, n + 2))
-    for i in range(n):
-        sel = idx[order[bounds[i] : bounds[i + 1]]]
+    if rgb is not None and n >= 2:  # joined through cells where the cloud has no point: missing depth
+        seen = np.bincount(cells(np.flatnonzero(region)), minlength=counts.size).reshape(shape) > 0
+        mean = label_means(labels.ravel()[flat], chroma(rgb[idx]), n)
+        labels, n = join_pieces(labels, n, ~seen, mean, params.colour_tol)
+    for at in ndimage.value_indices(labels.ravel()[flat], ignore_value=0).values():
+        sel = idx[at[0]]
         pts = b[:, sel]
-        if pts.shape[1] == 0 or not inside(pts[:2].mean(axis=1), half):
+        if not np.all(np.abs(pts[:2].mean(axis=1)) < half):  # off the board
             continue
         yield ObjectPoints(pts, point_rgb=None if rgb is None else rgb[sel])

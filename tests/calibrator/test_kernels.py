@@ -42,14 +42,10 @@ def test_log_matches_scipy_up_to_pi() -> None:
     assert so3.log(R[:6].reshape(2, 3, 3, 3)).shape == (2, 3, 3)
 
 
-def test_singular_and_indefinite_solves_match_numpy() -> None:
+def test_indefinite_solves_match_numpy() -> None:
     rng = np.random.default_rng(2)
     for p in (3, 9, 11, 15):
         Q = np.linalg.qr(rng.normal(size=(p, p)))[0]
-        ev = np.r_[rng.uniform(0.5, 2.0, p - 2), 0.0, 0.0]  # rank p - 2: Cholesky fails
-        A = (Q * ev) @ Q.T
-        A = 0.5 * (A + A.T)
-        assert np.allclose(kernels.pinv_solve(A, np.eye(p), 1e-15), np.linalg.pinv(A), atol=1e-9)
         S = (Q * np.r_[-1.0, rng.uniform(0.5, 2.0, p - 1)]) @ Q.T  # indefinite: the least-squares fallback
         S = 0.5 * (S + S.T)
         b = rng.normal(size=p)
@@ -102,6 +98,6 @@ def test_warm_kernels_compiles_every_entry_point() -> None:
     entry_points = [
         fk.levenberg_marquardt, fk.linear_system, fk.gauss_newton_steps, influence._influence,
         kernels.inverse, kernels.rigid_transforms, so3.exp_so3, so3.log_so3, so3.project_so3,
-        diagnostics.rotation_spread, noise._camera_sigma, noise._isotropic_variance,
+        diagnostics.rotation_spread, noise._isotropic_variance,
     ]  # fmt: skip
     assert all(len(f.signatures) == 1 for f in entry_points), [f.py_func.__name__ for f in entry_points]

@@ -97,16 +97,10 @@ def run_target(args: argparse.Namespace) -> Any:
     if args.target == "blob":
         p_cam, T = load_samples(args)
         return calibrate_target("blob", args.setup, T_base_flange=T, p_cam=p_cam, **options)
-    from .targets.files import read_cloud, read_euler_poses
+    from .targets.files import read_cloud
 
-    if args.euler_poses:
-        T = read_euler_poses(args.euler_poses, args.euler_convention, args.length_unit)
-    elif args.tfs:
-        from .inputs.lab import read_tfs
-
-        T = read_tfs(args.tfs)
-    else:
-        T = load_samples(args)[1]
+    given = flange_poses(args)
+    T = load_samples(args)[1] if given is None else given
     if not args.clouds:
         raise InputMismatch("--target sphere needs --clouds (one cloud file per flange pose) or --mcap FILE")
     if len(args.clouds) != len(T):
@@ -122,19 +116,14 @@ def image_inputs(args: argparse.Namespace) -> dict[str, Any]:
     --target charuco or apriltag."""
     from .targets.apriltag import TagSpec
     from .targets.charuco import BoardSpec
-    from .targets.files import read_camera_matrix, read_euler_poses, read_grey_images
+    from .targets.files import read_camera_matrix, read_grey_images
 
     if not args.images or not args.camera_matrix:
         raise InputMismatch(
             f"--target {args.target} needs --images (one per flange pose) and --camera-matrix"
         )
-    if args.euler_poses:
-        T = read_euler_poses(args.euler_poses, args.euler_convention, args.length_unit)
-    elif args.tfs:
-        from .inputs.lab import read_tfs
-
-        T = read_tfs(args.tfs)
-    else:
+    T = flange_poses(args)
+    if T is None:
         raise InputMismatch(
             f"--target {args.target} needs the flange poses: --tfs FILE or --euler-poses FILE"
         )
@@ -167,6 +156,16 @@ def image_inputs(args: argparse.Namespace) -> dict[str, Any]:
         (int(args.board[0]), int(args.board[1])), args.board[2], args.board[3], args.board_dict
     )  # fmt: skip
     return {**inputs, "board": board}
+
+
+def flange_poses(args: argparse.Namespace) -> np.ndarray | None:
+    """(n, 4, 4) T_base_flange of --euler-poses or --tfs, None when neither is given."""
+    from .inputs.lab import read_tfs
+    from .targets.files import read_euler_poses
+
+    if args.euler_poses:
+        return read_euler_poses(args.euler_poses, args.euler_convention, args.length_unit)
+    return read_tfs(args.tfs) if args.tfs else None
 
 
 def load_samples(args: argparse.Namespace) -> tuple[np.ndarray, np.ndarray]:

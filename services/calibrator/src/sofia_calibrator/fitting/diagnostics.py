@@ -10,7 +10,7 @@ from sofia_schemas.transforms import apply
 
 from ..errors import DegenerateMotion
 from . import kernels, so3
-from .kernels import jit, sym_eig
+from .kernels import jit
 from .so3 import log_so3
 
 LAB_SPREAD_LIMIT_MM = 10.0
@@ -117,17 +117,10 @@ def rotation_spread(R_base_flange):  # type: ignore[no-untyped-def]
     its principal axes, degrees, largest first; rel^T rel (3, 3))."""
     n = R_base_flange.shape[0]
     rel_R = np.empty((max(n - 1, 0), 3, 3))
+    R_0_base = R_base_flange[0].T.copy()
     for i in range(1, n):
-        for a in range(3):
-            for b in range(3):
-                rel_R[i - 1, a, b] = (R_base_flange[0, 0, a] * R_base_flange[i, 0, b]
-                                      + R_base_flange[0, 1, a] * R_base_flange[i, 1, b]
-                                      + R_base_flange[0, 2, a] * R_base_flange[i, 2, b])  # fmt: skip
+        rel_R[i - 1] = R_0_base @ R_base_flange[i]
     rel = log_so3(rel_R)
-    S = np.zeros((3, 3))
-    for i in range(n - 1):
-        for a in range(3):
-            for b in range(3):
-                S[a, b] += rel[i, a] * rel[i, b]
-    ev = np.sort(sym_eig(S)[0])[::-1]  # singular values of rel, squared, largest first
+    S = rel.T @ rel
+    ev = np.linalg.eigvalsh(S)[::-1]  # singular values of rel, squared, largest first
     return np.degrees(np.sqrt(np.maximum(ev, 0.0))) / math.sqrt(max(n - 1, 1)), S

@@ -7,7 +7,7 @@ import math
 
 import numpy as np
 
-from .kernels import cholesky_solve, inverse, jit, matmul3, solve_vector
+from .kernels import cholesky_solve, inverse, jit, solve_vector
 from .so3 import exp_so3
 
 LOSS_CODES = {"linear": 0, "huber": 1, "cauchy": 2}
@@ -22,34 +22,18 @@ def linear_system(p_cam, R_base_flange, t_base_flange, w):  # type: ignore[no-un
     A = np.zeros((3 * n, 15))
     b = np.empty(3 * n)
     for i in range(n):
-        sw = math.sqrt(w[i])
-        for a in range(3):
-            row = 3 * i + a
-            for j in range(3):
-                for c in range(3):
-                    A[row, 3 * j + c] = R_base_flange[i, a, j] * p_cam[i, c] * sw
-                A[row, 9 + j] = R_base_flange[i, a, j] * sw
-            A[row, 12 + a] = -sw
-            b[row] = -t_base_flange[i, a] * sw
+        sw, rows = math.sqrt(w[i]), slice(3 * i, 3 * i + 3)
+        A[rows, :9] = np.kron(R_base_flange[i], p_cam[i]) * sw  # R_i p_i^T, row-major vec R
+        A[rows, 9:12] = R_base_flange[i] * sw
+        A[rows, 12:] = np.eye(3) * -sw
+        b[rows] = -t_base_flange[i] * sw
     x = np.zeros(15)
     if 3 * n < 30:
         return A, b, x, False
-    scale = np.empty(15)
-    for c in range(15):
-        s = 0.0
-        for r in range(3 * n):
-            s += A[r, c] * A[r, c]
-        scale[c] = 1.0 / max(math.sqrt(s), 1e-300)
-    N, y = np.zeros((15, 15)), np.zeros((15, 1))
-    for r in range(3 * n):
-        for c in range(15):
-            ac = A[r, c] * scale[c]
-            y[c, 0] += ac * b[r]
-            for d in range(c + 1):
-                N[c, d] += ac * A[r, d] * scale[d]
-    X, solved = cholesky_solve(N, y)  # the lower triangle of N is read
-    for c in range(15):
-        x[c] = X[c, 0] * scale[c]
+    scale = 1.0 / np.maximum(np.sqrt((A * A).sum(axis=0)), 1e-300)
+    As = A * scale
+    X, solved = cholesky_solve(As.T @ As, (As.T @ b).reshape((15, 1)))
+    x = X[:, 0] * scale
     return A, b, x, solved
 
 
@@ -116,20 +100,9 @@ def _jacobian(R, u, Rt_fl, G, inv_sigma, J):  # type: ignore[no-untyped-def]
 @jit
 def _normal(J, w, r, H, g):  # type: ignore[no-untyped-def]
     """Fills H = J^T W J and g = J^T W r (W: each sample's weight on its three rows)."""
-    P = J.shape[1]
-    g[:] = 0.0
-    H[:] = 0.0
-    for row in range(J.shape[0]):
-        wi = w[row // 3]
-        ri = r[row // 3, row % 3] * wi
-        for a in range(P):
-            ja = J[row, a] * wi
-            g[a] += J[row, a] * ri
-            for b in range(a + 1):
-                H[a, b] += ja * J[row, b]
-    for a in range(P):
-        for b in range(a):
-            H[b, a] = H[a, b]
+    Jw = J * np.repeat(w, 3).reshape((-1, 1))
+    H[:] = Jw.T @ J
+    g[:] = Jw.T @ r.ravel()
 
 
 @jit
@@ -141,12 +114,8 @@ def levenberg_marquardt(p_cam, R_fl, t_fl, sigma, G, R, t, p_base, beta, loss, c
     Rt_fl = np.empty((n, 3, 3))
     q0 = np.empty((n, 3))  # q = Rt_fl p_base + q0: blob, flange frame
     for i in range(n):
-        for a in range(3):
-            for j in range(3):
-                Rt_fl[i, a, j] = R_fl[i, j, a]
-            q0[i, a] = -(
-                Rt_fl[i, a, 0] * t_fl[i, 0] + Rt_fl[i, a, 1] * t_fl[i, 1] + Rt_fl[i, a, 2] * t_fl[i, 2]
-            )
+        Rt_fl[i] = R_fl[i].T
+        q0[i] = -(Rt_fl[i] @ t_fl[i])
     inv_sigma = 1.0 / sigma
     u, r, w = np.empty((n, 3)), np.empty((n, 3)), np.empty(n)
     u_new, r_new, w_new = np.empty((n, 3)), np.empty((n, 3)), np.empty(n)
@@ -177,7 +146,7 @@ def levenberg_marquardt(p_cam, R_fl, t_fl, sigma, G, R, t, p_base, beta, loss, c
             if decrement <= tol * max(cost, 1e-12):
                 converged = True
                 break
-            R_new = matmul3(R, exp_so3(dx[0], dx[1], dx[2]))
+            R_new = R @ exp_so3(dx[0], dx[1], dx[2])
             t_new[:], p_new[:], b_new[:] = t + dx[3:6], p_base + dx[6:9], beta + dx[9:]
             cost_new = _evaluate(
                 R_new, t_new, p_new, b_new, Rt_fl, q0, p_cam, G, inv_sigma, loss, c, u_new, r_new, w_new
@@ -207,41 +176,24 @@ def gauss_newton_steps(J_ref, errors, sigma_ref, sigma, G, extra):  # type: igno
     beta_sigma (nb, kmax), the last two scaled by chi2 / dof. One Jacobian holds every model's
     columns: each model's normal equations are a principal block of its J^T J."""
     m, K, nb = errors.shape[0], G.shape[2], extra.shape[0]
-    J, r = np.empty((3 * m, 9 + K)), np.empty(3 * m)
-    for i in range(m):
-        for a in range(3):
-            row = 3 * i + a
-            f = sigma_ref[i, a] / sigma[i, a]
-            for c in range(9):
-                J[row, c] = J_ref[row, c] * f
-            for c in range(K):
-                J[row, 9 + c] = G[i, a, c] / -sigma[i, a]
-            r[row] = errors[i, a] / sigma[i, a]
-    P = 9 + K
-    M, g_all = np.empty((P, P)), np.empty(P)
-    _normal(J, np.ones(m), r.reshape(m, 3), M, g_all)
-    rr = (r * r).sum()
+    inv_sigma = 1.0 / sigma.reshape(3 * m)
+    J = np.empty((3 * m, 9 + K))
+    J[:, :9] = J_ref[:, :9] * (sigma_ref.reshape(3 * m) * inv_sigma).reshape((-1, 1))
+    J[:, 9:] = G.reshape((3 * m, K)) * -inv_sigma.reshape((-1, 1))
+    r = errors.reshape(3 * m) * inv_sigma
+    M, g_all, rr = J.T @ J, J.T @ r, r @ r
     kmax = max(1, extra.max())
     chi2, dx = np.empty(nb), np.empty((nb, 9))
     beta, cov9, beta_sigma = np.zeros((nb, kmax)), np.empty((nb, 9, 9)), np.zeros((nb, kmax))
-    cols = np.empty(P, dtype=np.int64)
     end = 9
     for b in range(nb):
         k = extra[b]
-        for j in range(9 + k):
-            cols[j] = j if j < 9 else end + j - 9
+        used = np.concatenate((np.arange(9), np.arange(end, end + k)))  # this model's unknowns among all
         end += k
-        used = cols[: 9 + k]  # this model's unknowns among all the columns
         Mb, g = M[used][:, used], g_all[used]
         C = inverse(Mb)
-        step = np.empty(9 + k)
-        c2 = rr
-        for i in range(9 + k):
-            si = 0.0
-            for j in range(9 + k):
-                si -= C[i, j] * g[j]
-            step[i] = si
-            c2 += g[i] * si
+        step = -(C @ g)
+        c2 = rr + g @ step
         chi2[b] = c2
         dof = 3 * m - 9 - k
         s2 = c2 / dof if dof > 0 else 1.0

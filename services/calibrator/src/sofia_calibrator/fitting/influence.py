@@ -17,7 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.special import fdtrc
 
-from .kernels import inverse, jit, solve3
+from .kernels import inverse, jit
 from .solver import Solution
 
 
@@ -48,25 +48,12 @@ def _influence(J, r, JtJ):  # type: ignore[no-untyped-def]
     J (3 m, p), whitened residuals r (m, 3), information JtJ (p, p). Returns (d (m, 3): (I - H_ii)^-1
     r_i, shift (m, p): C J_i^T d_i, q (m,): r_i . d_i)."""
     m, p = r.shape[0], J.shape[1]
-    C = inverse(JtJ)
-    JC = np.zeros((3 * m, p))
-    for row in range(3 * m):
-        for a in range(p):
-            for b in range(p):
-                JC[row, b] += J[row, a] * C[a, b]
-    d, shift, q = np.empty((m, 3)), np.zeros((m, p)), np.empty(m)
-    A = np.empty((3, 3))
+    JC = J @ inverse(JtJ)
+    d, shift, q = np.empty((m, 3)), np.empty((m, p)), np.empty(m)
+    I_nudged = np.eye(3) * (1.0 + 1e-12)  # so that I - H_ii stays invertible
     for i in range(m):
-        for a in range(3):
-            for b in range(3):
-                h = 0.0
-                for c in range(p):
-                    h += JC[3 * i + a, c] * J[3 * i + b, c]
-                A[a, b] = (1.0 + 1e-12 if a == b else 0.0) - h  # I nudged so that I - H_ii stays invertible
-        x = solve3(A, r[i])
-        d[i] = x
-        q[i] = r[i, 0] * d[i, 0] + r[i, 1] * d[i, 1] + r[i, 2] * d[i, 2]
-        for a in range(3):
-            for c in range(p):
-                shift[i, c] += JC[3 * i + a, c] * d[i, a]
+        rows = slice(3 * i, 3 * i + 3)
+        d[i] = np.linalg.solve(I_nudged - JC[rows] @ J[rows].T, r[i])
+        q[i] = r[i] @ d[i]
+        shift[i] = d[i] @ JC[rows]
     return d, shift, q

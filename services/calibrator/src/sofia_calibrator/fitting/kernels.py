@@ -1,9 +1,9 @@
 """Compiled building blocks (numba): small dense symmetric solves and the check of the poses.
 
-A calibration solves systems of 9-15 unknowns over tens of samples, where each numpy call costs more
-than its arithmetic; these loops run without LAPACK (quick to compile), for C-contiguous writeable
-float64 arrays (:func:`c_array`), cached (``cache=True``) and compiled ahead of the first calibration
-by :func:`sofia_calibrator.fitting.warm.warm_kernels` (``scripts/install.sh``, the image).
+A calibration solves systems of 9-15 unknowns over tens of samples, where each numpy call from
+Python costs more than its arithmetic. The kernels take C-contiguous writeable float64 arrays
+(:func:`c_array`), are cached (``cache=True``) and compiled ahead of the first calibration by
+:func:`sofia_calibrator.fitting.warm.warm_kernels` (``scripts/install.sh``, the image).
 """
 
 from __future__ import annotations
@@ -58,113 +58,19 @@ def cholesky_solve(A, B):  # type: ignore[no-untyped-def]
 
 
 @jit
-def sym_eig(A):  # type: ignore[no-untyped-def]
-    """Eigenvalues (p,) and eigenvectors (p, p), as columns, of a symmetric (p, p) A: cyclic
-    Jacobi rotations until the off-diagonal part is below rounding (no LAPACK: fast to compile)."""
-    p = A.shape[0]
-    a, V = A.copy(), np.eye(p)
-    scale = (a * a).sum()
-    for _ in range(60):
-        off = 0.0
-        for i in range(p):
-            for j in range(i + 1, p):
-                off += a[i, j] * a[i, j]
-        if off <= (1e-3 * EPS) ** 2 * scale:
-            break
-        for i in range(p - 1):
-            for j in range(i + 1, p):
-                if a[i, j] == 0.0:
-                    continue
-                theta = (a[j, j] - a[i, i]) / (2.0 * a[i, j])
-                t = 0.5 / theta if abs(theta) > 1e150 else 1.0 / (abs(theta) + math.sqrt(theta * theta + 1.0))
-                t = t if theta >= 0 or abs(theta) > 1e150 else -t
-                c = 1.0 / math.sqrt(t * t + 1.0)
-                sn = t * c
-                for k in range(p):  # A <- A G, then G^T A, V <- V G
-                    aki, akj = a[k, i], a[k, j]
-                    a[k, i], a[k, j] = c * aki - sn * akj, sn * aki + c * akj
-                for k in range(p):
-                    aik, ajk = a[i, k], a[j, k]
-                    a[i, k], a[j, k] = c * aik - sn * ajk, sn * aik + c * ajk
-                for k in range(p):
-                    vki, vkj = V[k, i], V[k, j]
-                    V[k, i], V[k, j] = c * vki - sn * vkj, sn * vki + c * vkj
-    return np.diag(a).copy(), V
-
-
-@jit
-def pinv_solve(A, B, rcond):  # type: ignore[no-untyped-def]
-    """X = pinv(A) B for a symmetric (p, p) A, eigenvalues below ``rcond`` times the largest (in
-    magnitude) dropped: numpy's ``pinv`` (rcond 1e-15) and ``lstsq`` (rcond eps p) for such an A."""
-    ev, V = sym_eig(A)
-    p, k = B.shape
-    top = np.abs(ev).max()
-    X = np.zeros((p, k))
-    for i in range(p):
-        if abs(ev[i]) <= rcond * top:
-            continue
-        for c in range(k):
-            proj = 0.0
-            for m in range(p):
-                proj += V[m, i] * B[m, c]
-            proj /= ev[i]
-            for m in range(p):
-                X[m, c] += V[m, i] * proj
-    return X
-
-
-@jit
 def inverse(A):  # type: ignore[no-untyped-def]
     """Inverse of a symmetric (p, p) information matrix; the pseudo-inverse when it is singular."""
     X, ok = cholesky_solve(A, np.eye(A.shape[0]))
-    return X if ok else pinv_solve(A, np.eye(A.shape[0]), 1e-15)
+    return X if ok else np.ascontiguousarray(np.linalg.pinv(A, 1e-15))
 
 
 @jit
 def solve_vector(A, b):  # type: ignore[no-untyped-def]
-    """x with A x = b, (p, p) symmetric A: Cholesky, least squares when A is not positive definite."""
+    """x with A x = b, (p, p) symmetric A: Cholesky, least squares (numpy's ``lstsq`` cut-off) when A
+    is not positive definite."""
     p = b.shape[0]
-    B = b.copy().reshape((p, 1))
-    X, ok = cholesky_solve(A, B)
-    if not ok:
-        X = pinv_solve(A, B, EPS * p)
-    return X.reshape(p)
-
-
-@jit
-def matmul3(A, B):  # type: ignore[no-untyped-def]
-    """A B of (3, 3) matrices."""
-    C = np.empty((3, 3))
-    for i in range(3):
-        for j in range(3):
-            C[i, j] = A[i, 0] * B[0, j] + A[i, 1] * B[1, j] + A[i, 2] * B[2, j]
-    return C
-
-
-@jit
-def solve3(A, b):  # type: ignore[no-untyped-def]
-    """x (3,) with A x = b for a (3, 3) A: LU with partial pivoting (LAPACK ``dgesv``'s order)."""
-    M, x = A.copy(), b.copy()
-    for c in range(3):
-        p = c
-        for i in range(c + 1, 3):
-            if abs(M[i, c]) > abs(M[p, c]):
-                p = i
-        if p != c:
-            for j in range(3):
-                M[c, j], M[p, j] = M[p, j], M[c, j]
-            x[c], x[p] = x[p], x[c]
-        for i in range(c + 1, 3):
-            f = M[i, c] / M[c, c]
-            for j in range(c + 1, 3):
-                M[i, j] -= f * M[c, j]
-            x[i] -= f * x[c]
-    for i in range(2, -1, -1):
-        s = x[i]
-        for j in range(i + 1, 3):
-            s -= M[i, j] * x[j]
-        x[i] = s / M[i, i]
-    return x
+    X, ok = cholesky_solve(A, b.copy().reshape((p, 1)))
+    return X.reshape(p) if ok else np.linalg.pinv(A, EPS * p) @ b
 
 
 @jit

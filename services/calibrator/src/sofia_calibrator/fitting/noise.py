@@ -27,17 +27,9 @@ def camera_sigma(p_cam: np.ndarray) -> np.ndarray:
     p_cam: (n, 3) float, camera optical frame (z forward), metres.
     Returns (n, 3) float metres: (lateral, lateral, depth) = (c z, c z, k z^2), floored at 0.1 mm.
     """
-    return _camera_sigma(c_array(p_cam))  # type: ignore[no-any-return]
-
-
-@jit
-def _camera_sigma(p_cam):  # type: ignore[no-untyped-def]
-    out = np.empty((p_cam.shape[0], 3))
-    for i in range(p_cam.shape[0]):
-        z = abs(p_cam[i, 2])
-        out[i, 0] = out[i, 1] = max(LATERAL_COEFF * z, FLOOR_M)
-        out[i, 2] = max(DEPTH_COEFF_PER_M * z * z, FLOOR_M)
-    return out
+    z = np.abs(np.asarray(p_cam, dtype=np.float64)[:, 2])
+    lateral = np.maximum(LATERAL_COEFF * z, FLOOR_M)
+    return np.stack((lateral, lateral, np.maximum(DEPTH_COEFF_PER_M * z * z, FLOOR_M)), axis=1)
 
 
 def sample_noise(p_cam: np.ndarray, rng: np.random.Generator, scale: float = 1.0) -> np.ndarray:

@@ -82,8 +82,7 @@ def label_means(labels: np.ndarray, values: np.ndarray, n: int) -> np.ndarray:
 
 def colour_distance(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Distance of :func:`chroma` features a (..., 4) and b (..., 4)."""
-    d = a - b
-    return np.sqrt(np.einsum("...k,...k->...", d, d))
+    return np.linalg.norm(a - b, axis=-1)  # type: ignore[no-any-return]
 
 
 @dataclass(frozen=True)

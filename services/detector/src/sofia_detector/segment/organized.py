@@ -45,10 +45,7 @@ def organized_objects(
     )
     seeds, labels, n = raised.mask, raised.labels, raised.n
     claimed = np.zeros((H, W), dtype=bool)  # the pixels of the objects found so far
-    pad = 2
     for i, sl in enumerate(ndimage.find_objects(labels, max_label=n), start=1):
-        if sl is None:
-            continue
         comp = (labels[sl] == i) & seeds[sl]
         sr, sc = where(comp)
         if sr.size < params.min_seed_pixels:
@@ -59,8 +56,8 @@ def organized_objects(
         rows, cols = (sr + sl[0].start) * s, (sc + sl[1].start) * s  # full-resolution seed pixels
         if claimed[rows, cols].any():
             continue  # a second seed of an object already found (holes in the cloud split it)
-        r0, r1 = max((sl[0].start - pad) * s, 0), min((sl[0].stop + pad) * s, H)
-        c0, c1 = max((sl[1].start - pad) * s, 0), min((sl[1].stop + pad) * s, W)
+        r0, r1 = max((sl[0].start - 2) * s, 0), min((sl[0].stop + 2) * s, H)  # 2 coarse pixels around
+        c0, c1 = max((sl[1].start - 2) * s, 0), min((sl[1].stop + 2) * s, W)
         b = points_in_frame(points_base[r0:r1, c0:c1], fit.T_base_board)
         window = raised_pixels(b, point, params.max_height, delta)
         wl, n_pieces = window.labels, window.n

@@ -24,6 +24,4 @@ COPY config/board.yaml /etc/sofia/board.yaml
 RUN useradd --create-home --uid 10001 --user-group sofia
 USER sofia
 WORKDIR /home/sofia
-# the hull and least-area rectangle compiled into numba's cache (~/.cache/numba): no compile at start
-RUN python -c "from sofia_detector.warmup import compile_kernels; compile_kernels()"
 CMD ["sofia", "detector", "serve", "--board", "/etc/sofia/board.yaml"]

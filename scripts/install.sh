@@ -33,10 +33,9 @@ echo "[install] pip install (SofIA packages + test tools)"
   -e "schemas[ros]" -e "runtime[ros]" -e "system[demo]" -e "replay[synth]" -e services/detector \
   -e services/calibrator -e services/gripper -e "services/camera[sim]" -e services/viz \
   -e "services/arm[sim,calibrate]" -r requirements-dev.txt
-# the camera's, the detector's and the calibrator's compiled kernels into numba's cache, so the
+# the camera's and the calibrator's compiled kernels into numba's cache, so the
 # first `sofia camera serve` starts at once and the first calibration does not compile (~15 s)
 "$VENV/bin/python" -c "from sofia_camera.pipeline import warm_kernels; warm_kernels()"
-"$VENV/bin/python" -c "from sofia_detector.warmup import compile_kernels; compile_kernels()"
 "$VENV/bin/python" -c "from sofia_calibrator.fitting.warm import warm_kernels; warm_kernels()"
 echo "$inputs" > "$stamp"
 echo "[install] done: $("$VENV/bin/sofia" --version) installed in $VENV"

@@ -1,9 +1,7 @@
-"""The hull (OpenCV's) and the least-area rectangle against Qhull and a brute-force search; the
-kernels compiled ahead of detection; the cone's Gauss-Newton fit."""
+"""The hull (OpenCV's) and the least-area rectangle against Qhull and a brute-force search; the cone's
+Gauss-Newton fit."""
 
 from __future__ import annotations
-
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -95,74 +93,6 @@ def test_no_edge_within_max_yaw_gives_yaw_zero() -> None:
     assert np.allclose(box.lo, square.min(axis=0)) and np.allclose(box.hi, square.max(axis=0))
     rect = min_area_rect(square)
     assert rect.yaw == pytest.approx(0.6, abs=1e-6) and np.allclose(rect.size, 1.0, atol=1e-6)
-
-
-FRESH_PROCESS = """
-import importlib, json, pkgutil, sys
-from pathlib import Path
-import numpy as np
-import sofia_detector
-from numba.core.registry import CPUDispatcher
-from sofia_detector.detect import detect
-from sofia_detector.warmup import compile_kernels, warm_scene
-from sofia_replay.mcap_io import iter_clouds
-from sofia_replay.synth import write_scene_set
-from sofia_schemas import Board, pointcloud
-
-kernels = {}  # every numba-compiled function of the detector package, by module.name
-for info in pkgutil.walk_packages(sofia_detector.__path__, "sofia_detector."):
-    mod = importlib.import_module(info.name)
-    for name, f in vars(mod).items():
-        if isinstance(f, CPUDispatcher) and f.py_func.__module__ == mod.__name__:
-            kernels[f"{info.name.removeprefix('sofia_detector.')}.{name}"] = f
-compile_kernels()
-before = {name: len(f.signatures) for name, f in kernels.items()}
-board = Board.default()
-points, rgb = warm_scene(board)
-holed = points.copy()
-holed[200:260, 300:340] = np.nan  # missing depth on the box and the board around it
-holed[:, :40] = np.nan  # the band the second imager does not see
-dark = rgb.copy()
-dark[200:260, 300:340] = (20, 20, 25)
-statuses = []
-clouds = [(points, rgb), (holed, dark), (holed, None)]
-write_scene_set(Path(sys.argv[1]), "mixed", 12, seed=11, rate_hz=30, frames="base")  # round tops, holes
-clouds += [(np.array(c.xyz()), np.array(c.rgb())) for _, _, c in iter_clouds(Path(sys.argv[1]))]
-for cloud, colours in clouds:
-    ok = np.isfinite(cloud).all(axis=-1)
-    for p, c in ((cloud, colours), (cloud[ok], None if colours is None else colours[ok])):
-        statuses.append(detect(p, board, rgb=c).status)
-        # as the service receives it: read-only views of the bytes
-        received = pointcloud.decode(bytes(pointcloud.encode_points(p, stamp_ns=1, frame_id="base", rgb=c)))
-        statuses.append(detect(received.xyz(), board, rgb=received.rgb()).status)
-after = {name: len(f.signatures) for name, f in kernels.items()}
-print(json.dumps({"before": before, "after": after, "statuses": statuses}))
-"""
-
-
-def test_compile_kernels_compiles_what_detection_calls(tmp_path: Path) -> None:
-    """In a fresh process, after the warm-up, detections find every compiled signature they call
-    (none is compiled during a detection): organized clouds with colours and missing depth (a dark
-    object's holes, the invalid band), the same flattened, and a cloud without colours; synthetic
-    scenes (round tops, pieces split by holes); each also as the service receives it (read-only
-    views of the bytes: a kernel compiled at a cloud's arrival stalls the service for 100 ms or
-    more, and with a backlog of one the next clouds are lost). Every kernel is compiled by the
-    warm-up itself."""
-    import json
-    import subprocess
-    import sys
-
-    scenes = str(tmp_path / "scenes.mcap")
-    run = subprocess.run(
-        [sys.executable, "-c", FRESH_PROCESS, scenes], capture_output=True, text=True, timeout=300
-    )
-    assert run.returncode == 0, run.stderr[-3000:]
-    res = json.loads(run.stdout.strip().splitlines()[-1])
-    before, after = res["before"], res["after"]
-    assert len(before) >= 2, sorted(before)
-    assert all(n >= 1 for n in before.values()), before
-    assert set(res["statuses"]) <= {"ok", "no_object"} and "ok" in res["statuses"], res["statuses"]
-    assert after == before
 
 
 def test_cone_gauss_newton_finds_the_apex_from_one_flank() -> None:

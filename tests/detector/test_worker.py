@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from sofia_detector.frames import points_to_base
 from sofia_detector.service import Detector, ServiceConfig
-from sofia_detector.worker import CloudJob, DropLog, WorkQueue
+from sofia_detector.worker import STALE, CloudJob, DropLog, WorkQueue
 from sofia_replay.synth import DEFAULT_T_FLANGE_CAM
 from sofia_runtime.zenoh_config import ZenohOptions
 from sofia_schemas import pointcloud
@@ -63,7 +63,7 @@ def test_a_full_queue_drops_the_oldest_cloud_and_says_so() -> None:
     jobs = [_job() for _ in range(5)]
     dropped = [work.put_cloud(j) for j in jobs]
     assert dropped == [None, None, jobs[0], jobs[1], jobs[2]]
-    assert work.received == 5 and work.dropped == 3 and len(work) == 2
+    assert work.received == 5 and drops.counts[STALE] == 3 and len(work) == 2
     assert work.get(lambda j: 0.0) is jobs[3] and work.take_cloud(lambda j: 0.0) is jobs[4]
     state, detail = drops.state()
     assert state == "degraded" and detail.startswith("stale clouds: 3 dropped (last: a newer cloud arrived")

@@ -106,13 +106,6 @@ def _numbered(out: Path, n: int) -> Path:
     return out.with_name(f"{out.stem}-{n + 1:02d}{out.suffix or '.png'}")
 
 
-def _plot(out: Path, fc: FileCloud, board: Board, det: Detection, path: Path) -> None:
-    from .plot import plot_detection
-
-    plot_detection(fc.points, board, det, out, title=f"{out.stem}: {path.name}, cloud {fc.index + 1}")
-    log.info("plot written to %s", out)
-
-
 def _detect_all(args: argparse.Namespace) -> int:
     board = Board.load(args.board)
     T_flange_cam = load_transform_file(args.transform) if args.transform else None
@@ -132,7 +125,13 @@ def _detect_all(args: argparse.Namespace) -> int:
                     json.dumps(rec | {"board": board.digest}) if args.json else _summary(fc, det), flush=True
                 )
                 if args.plot:
-                    _plot(args.plot if single else _numbered(args.plot, n_clouds), fc, board, det, path)
+                    from .plot import plot_detection
+
+                    out = args.plot if single else _numbered(args.plot, n_clouds)
+                    plot_detection(
+                        fc.points, board, det, out, title=f"{out.stem}: {path.name}, cloud {fc.index + 1}"
+                    )
+                    log.info("plot written to %s", out)
                 n_clouds += 1
         except DetectorError as e:
             failures += 1

@@ -30,22 +30,15 @@ class PickParams:
     min_confidence: float = 0.5
 
 
-def R_base_flange_down(yaw: float) -> np.ndarray:
-    """(3, 3) flange orientation pointing down with its x axis at ``yaw`` about the base z axis.
-
-    Columns: x = (cos, sin, 0), y = (sin, -cos, 0), z = (0, 0, -1) (a rotation: det = +1).
-    """
-    c, s = np.cos(yaw), np.sin(yaw)
-    return np.array([[c, s, 0.0], [s, -c, 0.0], [0.0, 0.0, -1.0]])
-
-
 def pick_target(
     obj: DetectedObject, stamp_ns: int, frame_id: str = "panda_link0", params: PickParams | None = None
 ) -> PickTarget:
     """The top-down pick of ``obj`` (base frame, metres)."""
     params = params or PickParams()
     yaw = float(obj.yaw)
-    R = R_base_flange_down(yaw + params.yaw_offset)
+    c, s = np.cos(yaw + params.yaw_offset), np.sin(yaw + params.yaw_offset)
+    # R_base_flange, columns x = (c, s, 0), y = (s, -c, 0), z = (0, 0, -1): pointing down, det +1
+    R = np.array([[c, s, 0.0], [s, -c, 0.0], [0.0, 0.0, -1.0]])
     center = np.asarray(obj.center, dtype=np.float64)
     grasp = center - R[:, 2] * params.fingertip_offset  # fingertips at the centre
     pregrasp = grasp + np.array([0.0, 0.0, params.pregrasp_height])

@@ -36,7 +36,7 @@ from .pick import Picks
 from .selection import select, split_selection
 from .service_config import ServiceConfig
 from .warmup import warm_up
-from .worker import BAD, UNMAPPED, CloudJob, DropLog, WorkQueue
+from .worker import BAD, STALE, UNMAPPED, CloudJob, DropLog, WorkQueue
 
 log = logging.getLogger("sofia.detector")
 
@@ -219,7 +219,7 @@ class Detector:
     def status(self) -> ServiceStatus:
         with self._lock:
             w, d = self.work, self.drops
-            counters = dict(self.counters, received=w.received, dropped=w.dropped, busy_queries=w.busy,
+            counters = dict(self.counters, received=w.received, dropped=d.counts[STALE], busy_queries=w.busy,
                             no_transform=d.counts[UNMAPPED], bad_clouds=d.counts[BAD],
                             picks=self.picks.published, picks_withheld=self.picks.withheld,
                             shm_read=self.shared.read, shm_copied=self.shared.copied,

@@ -1,7 +1,7 @@
-"""Warm the detector service before its first cloud: numba kernels, lazy imports (``rosbags``), first
-calls. Without it the first detection took 60-110 ms (mostly waiting for the GIL) and, at 30 Hz with a
-backlog of one, the next cloud was dropped. The scene: a camera 0.8 m above the board, allowed fields
-red, others white, a blue box on the first red field."""
+"""Warm the detector service before its first cloud: lazy imports (``rosbags``), first calls. Without
+it the first detection took 60-110 ms (mostly waiting for the GIL) and, at 30 Hz with a backlog of one,
+the next cloud was dropped. The scene: a camera 0.8 m above the board, allowed fields red, others
+white, a blue box on the first red field."""
 
 from __future__ import annotations
 
@@ -16,7 +16,6 @@ from sofia_schemas.ros2.encoding import decode_flange
 from sofia_schemas.rosmsg import encode_flange_pose
 from sofia_schemas.transforms import apply
 
-from .detect import detect
 from .pick import PickParams, first_pick
 
 log = logging.getLogger(__name__)
@@ -53,33 +52,11 @@ def warm_scene(board: Board) -> tuple[np.ndarray, np.ndarray]:
     return points, rgb
 
 
-def compile_kernels(board: Board | None = None) -> None:
-    """Compile (or load from numba's cache) every kernel for the layouts a detection passes: the
-    :func:`warm_scene` of ``board`` (default: :meth:`Board.default`) as arrays and as received bytes
-    (read-only strided views), with and without colours and missing depth, organized and flattened."""
-    board = board or Board.default()
-    points, rgb = warm_scene(board)
-    box = (rgb == BLUE).all(axis=-1)
-    cols = np.indices(WARM_SHAPE)[1]
-    holed = points.copy()
-    holed[:, :40] = np.nan  # the band the second imager does not see
-    holed[box & (np.abs(cols - cols[box].mean()) < 6)] = np.nan  # depth missing across the box
-    for cloud, colours in ((points, rgb), (holed, rgb), (holed, None)):
-        ok = np.isfinite(cloud).all(axis=-1)
-        for p, c in ((cloud, colours), (cloud[ok], None if colours is None else colours[ok])):
-            detect(p, board, rgb=c)
-            cdr = pointcloud.encode_points(p, stamp_ns=1, frame_id=board.frame_id, rgb=c)
-            received = pointcloud.decode(bytes(cdr))
-            detect(received.xyz(), board, rgb=received.rgb())
-
-
 def warm_up(board: Board, detect_payload: Callable[[bytes, bool, str], Detection], pick: PickParams) -> float:
     """Run the per-cloud path once on :func:`warm_scene` (in the board's frame, with colours) and
-    decode a flange pose, the kernels compiled or loaded first, publishing nothing; seconds taken.
-    A failure is logged, never raised."""
+    decode a flange pose, publishing nothing; seconds taken. A failure is logged, never raised."""
     t0 = time.perf_counter()
     try:
-        compile_kernels(board)
         points, rgb = warm_scene(board)
         det = detect_payload(bytes(pointcloud.encode_points(points, stamp_ns=1, frame_id=board.frame_id, rgb=rgb)),
                              False, "warm-up")  # fmt: skip

@@ -129,11 +129,6 @@ class WorkQueue(Generic[Q]):
         wait = pose_wait(self._clouds[0])
         return self._clouds.popleft() if wait <= 0 else wait
 
-    @property
-    def dropped(self) -> int:
-        """Clouds dropped to make room for newer ones."""
-        return self.drops.counts[STALE]
-
     def __len__(self) -> int:
         return len(self._clouds)
 

@@ -7,10 +7,10 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import cv2
 import numpy as np
 from scipy.cluster.hierarchy import DisjointSet
 
-from ..geometry.compiled import jit
 from ..geometry.grid import grow, label8, max_filter, where
 from ..geometry.samples import median
 
@@ -19,32 +19,33 @@ AROUND = np.mgrid[-1:2, -1:2].reshape(2, 1, 9)  # (row, col) offsets of a cell's
 STEPS = 3  # empty cells (missing depth) a piece grows through to meet another piece of its colour
 
 
-@jit
-def _consistent_at(c: np.ndarray, mask: np.ndarray, d2: np.float32, min_neighbours: int) -> np.ndarray:
-    """:func:`consistent_at` in one pass. Kept: 38 us against 284 us per call for its numpy form
-    (0.12 against 0.85 ms per cloud) on 28 realistic scenes."""
-    _, h, w = c.shape
-    out = np.zeros((h, w), dtype=np.bool_)
-    for r in range(h):
-        for q in range(w):
-            if not mask[r, q]:
-                continue
-            x, y, z = c[0, r, q], c[1, r, q], c[2, r, q]
-            k = 0
-            for rr in range(max(r - 1, 0), min(r + 2, h)):
-                for qq in range(max(q - 1, 0), min(q + 2, w)):
-                    if rr != r or qq != q:
-                        dx, dy, dz = c[0, rr, qq] - x, c[1, rr, qq] - y, c[2, rr, qq] - z
-                        k += dx * dx + dy * dy + dz * dz < d2  # False for NaN
-            out[r, q] = k >= min_neighbours
-    return out
+NEIGHBOURS = ((0, 1), (1, -1), (1, 0), (1, 1))  # half of the 8: each distance counts for both pixels
+SUM_XYZ = np.ones((1, 3), dtype=np.float32)
 
 
 def consistent_at(c: np.ndarray, mask: np.ndarray, delta: float, min_neighbours: int = 2) -> np.ndarray:
     """``mask`` (h, w) bool without flying pixels: only pixels with ``min_neighbours`` of their 8
-    neighbours within ``delta`` metres in 3D. c: (3, h, w) float32, any frame, metres, NaN allowed."""
-    c = np.ascontiguousarray(c, dtype=np.float32)
-    return _consistent_at(c, np.ascontiguousarray(mask), np.float32(delta * delta), min_neighbours)  # type: ignore[no-any-return]
+    neighbours within ``delta`` metres in 3D. c: (3, h, w) float32, any frame, metres, NaN allowed.
+    Distances in OpenCV, inside the mask's bounding box only: 110 us per call against 60 us for the
+    former numba loop and 170 us on the whole grid (0.6 against 0.3 ms per cloud, 30 realistic scenes)."""
+    out = np.zeros(mask.shape, dtype=bool)
+    x, y, w, h = cv2.boundingRect(np.ascontiguousarray(mask, dtype=np.uint8))
+    if w == 0:
+        return out
+    box = np.s_[max(y - 1, 0) : y + h + 1, max(x - 1, 0) : x + w + 1]
+    p = cv2.merge([np.asarray(ci[box], dtype=np.float32) for ci in c])  # (bh, bw, 3)
+    bh, bw = p.shape[:2]
+    near = np.zeros((bh, bw), dtype=np.uint8)
+    for dr, dq in NEIGHBOURS:
+        a = np.s_[: bh - dr, max(-dq, 0) : bw - max(dq, 0)]
+        b = np.s_[dr:, max(dq, 0) : bw + min(dq, 0)]
+        d = cv2.subtract(p[a], p[b])
+        d2 = cv2.transform(cv2.multiply(d, d), SUM_XYZ).reshape(d.shape[:2])
+        close = d2 < delta * delta  # False for NaN
+        near[a] += close
+        near[b] += close
+    out[box] = mask[box] & (near >= min_neighbours)
+    return out
 
 
 def pixel_spacing(m: np.ndarray, stride: int) -> float:

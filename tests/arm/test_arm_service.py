@@ -11,8 +11,9 @@ import time
 import numpy as np
 import pytest
 from sofia_runtime.client import ask
-from sofia_schemas.kinematics import panda_fk, pose_matrix, rotation_to_quat_xyzw
+from sofia_schemas.kinematics import panda_fk
 from sofia_schemas.messages import ArmResult, GripperState, ServiceStatus
+from sofia_schemas.transforms import make_transform, matrix_to_quat_xyzw
 
 from ..conftest import SOFIA
 from .conftest import Arm
@@ -29,7 +30,7 @@ def angle_deg(q1: np.ndarray, q2: np.ndarray) -> float:
 def assert_at(arm: Arm, T_goal: np.ndarray, mm: float = 1.0, deg: float = 0.1) -> None:
     p, q = arm.mean_pose()
     err_mm = np.linalg.norm(p - T_goal[:3, 3]) * 1e3
-    err_deg = angle_deg(q, rotation_to_quat_xyzw(T_goal[:3, :3]))
+    err_deg = angle_deg(q, matrix_to_quat_xyzw(T_goal[:3, :3]))
     assert err_mm <= mm and err_deg <= deg, f"{err_mm:.3f} mm, {err_deg:.4f} deg from the target"
 
 
@@ -51,7 +52,7 @@ def test_flange_pose_is_fk_of_joint_states(arm: Arm) -> None:
     p_pub = np.array([p for (p, _), _ in pairs])
     q_pub = np.array([q for (_, q), _ in pairs])
     assert np.abs(np.linalg.norm(p_pub - T[:, :3, 3], axis=1)).max() * 1e3 < 0.1
-    dots = np.abs(np.einsum("ni,ni->n", q_pub, rotation_to_quat_xyzw(T[:, :3, :3])))
+    dots = np.abs(np.einsum("ni,ni->n", q_pub, matrix_to_quat_xyzw(T[:, :3, :3])))
     assert np.degrees(2 * np.arccos(np.clip(dots, -1, 1))).max() < 0.01
     stamps = np.array(sorted(poses))
     assert np.all(np.diff(stamps) > 0) and abs(stamps[-1] - time.time_ns()) < 2e9  # bus clock
@@ -69,7 +70,7 @@ def test_move_joints_and_pose_reach_targets(arm: Arm) -> None:
     assert np.abs(np.array(r.q) - Q_A).max() < 0.01
     assert_at(arm, panda_fk(Q_A))
 
-    T_goal = pose_matrix(np.array([0.45, -0.1, 0.35]), np.array([1.0, 0.0, 0.0, 0.0]))
+    T_goal = make_transform(np.array([0.45, -0.1, 0.35]), np.array([1.0, 0.0, 0.0, 0.0]))
     r = arm.ok(command="move_pose", position=[0.45, -0.1, 0.35], quaternion_xyzw=[1, 0, 0, 0], speed=0.6)
     assert r.ok, r
     assert_at(arm, T_goal)

@@ -14,9 +14,9 @@ from sofia_arm.clock import ClockMap
 from sofia_arm.config import ArmConfig, load_config
 from sofia_arm.errors import ConfigError, OutsideJointLimits, OutsideWorkspace, TargetRefused, Unreachable
 from sofia_arm.safety import Safety, solve_ik
-from sofia_schemas.kinematics import Q_MAX, Q_MIN, panda_fk, quat_xyzw_to_rotation, rotation_to_quat_xyzw
+from sofia_schemas.kinematics import Q_MAX, Q_MIN, panda_fk
 from sofia_schemas.messages import ArmCommand
-from sofia_schemas.transforms import pose_gap
+from sofia_schemas.transforms import matrix_to_quat_xyzw, pose_gap
 
 HOME = np.array(ArmConfig().home_q)
 
@@ -71,14 +71,6 @@ def test_ik_finds_the_pose_of_joint_positions_near_home(dq: list[float]) -> None
     assert q is not None
     dp, dr = pose_gap(T, panda_fk(q))
     assert dp < 1e-5 and np.degrees(dr) < 1e-4
-
-
-def test_shared_kinematics_quaternions_round_trip_and_calibrator_uses_them() -> None:
-    rng = np.random.default_rng(3)
-    q = rng.normal(size=(500, 4))
-    q /= np.linalg.norm(q, axis=1, keepdims=True)
-    q[q[:, 3] < 0] *= -1
-    assert np.allclose(rotation_to_quat_xyzw(quat_xyzw_to_rotation(q)), q, atol=1e-12)
 
 
 def test_config_file_and_messages(tmp_path: object) -> None:
@@ -145,3 +137,25 @@ def test_the_planner_keeps_to_the_joint_limits_of_the_robot_driven() -> None:
     assert not ik.ok or np.all((ik.q >= reach.q_lo) & (ik.q <= reach.q_hi)), ik.q
     panda = plan_ik(panda_fk(q), q, Reach())
     assert panda.ok and panda.q[0] < fr3_lo[0]  # the Panda's limits would have sent joint 1 past the FR3's
+
+
+def test_a_saved_calibration_in_either_form_gives_the_survey_its_mount(tmp_path, session) -> None:  # type: ignore[no-untyped-def]
+    """With no calibrator answering, the survey reads ``--transform``: the calibrator's saved file
+    (``matrix``) or a hand-written one (``translation`` + ``quaternion_xyzw``); a bad one is refused
+    in one line naming the file."""
+    from sofia_arm.survey import calibration
+    from sofia_schemas.keys import Keys
+    from sofia_schemas.transforms import make_transform
+
+    T = make_transform(np.array([0.05, -0.03, 0.07]), np.array([0.1, 0.2, 0.3, 0.9]) / np.sqrt(0.95))
+    keys = Keys("survey-test-nobody")
+    (tmp_path / "q.yaml").write_text(
+        f"translation: {T[:3, 3].tolist()}\nquaternion_xyzw: {matrix_to_quat_xyzw(T[:3, :3]).tolist()}\n"
+    )
+    (tmp_path / "m.yaml").write_text(f"matrix: {T.tolist()}\n")
+    for name in ("q.yaml", "m.yaml"):
+        np.testing.assert_allclose(calibration(session, keys, tmp_path / name, timeout_s=0.2), T, atol=1e-12)
+    assert calibration(session, keys, None, timeout_s=0.2) is None
+    (tmp_path / "bad.yaml").write_text("matrix: [[1, 0], [0, 1]]\n")
+    with pytest.raises(TargetRefused, match=r"bad\.yaml: matrix must have shape \(4, 4\)"):
+        calibration(session, keys, tmp_path / "bad.yaml", timeout_s=0.2)

@@ -8,8 +8,8 @@ import subprocess
 
 import numpy as np
 from sofia_arm.poses import solve_ik
-from sofia_schemas.kinematics import pose_matrix
 from sofia_schemas.messages import PickTarget
+from sofia_schemas.transforms import make_transform
 
 from ..conftest import SOFIA
 from .conftest import Arm
@@ -58,7 +58,7 @@ def test_every_refusal_names_the_pose_and_the_rule_and_nothing_moves(arm: Arm) -
          "calibrate blob [1.6, 0.0, 0.0] m"),
     ]  # fmt: skip
     low = solve_ik(
-        pose_matrix(np.array([0.5, 0.05, 0.12]), np.array(DOWN)), q0
+        make_transform(np.array([0.5, 0.05, 0.12]), np.array(DOWN)), q0
     ).q  # fingertips 8 cm in the table
     refusals.append(
         ({"command": "move_joints", "q": low.tolist()}, "BelowSurface", "move_joints target: the fingers")

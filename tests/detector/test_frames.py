@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 from sofia_detector import BadTransformFile, TransformUnavailable
-from sofia_detector.frames import FlangeHistory, load_transform_file, points_to_base
+from sofia_detector.frames import FlangeHistory, points_to_base, read_transform_file
 from sofia_replay.synth import DEFAULT_T_FLANGE_CAM
 from sofia_schemas.messages import FlangePose
 from sofia_schemas.transforms import make_transform, matrix_to_quat_xyzw
@@ -56,7 +56,10 @@ def test_history_nearest_and_tolerance() -> None:
     h.add(2_000_000_000, _T([0, 0, 0], [1, 2, 3]))
     h.add(1_000_000_000, _T([0, 0, 0], [0, 0, 0]))  # out of order is fine
     assert np.allclose(h.at(2_010_000_000)[:3, 3], [1, 2, 3])
-    with pytest.raises(TransformUnavailable, match=r"40.0 ms from the cloud stamp"):
+    with pytest.raises(
+        TransformUnavailable,
+        match=r"nearest flange pose is 40\.0 ms from 2040000000 ns \(tolerance 20\.0 ms\)",
+    ):
         h.at(2_040_000_000)
     with pytest.raises(TransformUnavailable, match="no flange pose received yet"):
         FlangeHistory().at(5)
@@ -67,8 +70,8 @@ def test_transform_files(tmp_path: Path) -> None:
     (tmp_path / "m.json").write_text(json.dumps({"matrix": T.tolist()}))
     q = matrix_to_quat_xyzw(T[:3, :3])
     (tmp_path / "q.yaml").write_text(f"translation: {T[:3, 3].tolist()}\nquaternion_xyzw: {q.tolist()}\n")
-    assert np.allclose(load_transform_file(tmp_path / "m.json"), T)
-    assert np.allclose(load_transform_file(tmp_path / "q.yaml"), T)
+    assert np.allclose(read_transform_file(tmp_path / "m.json")[0], T)
+    assert np.allclose(read_transform_file(tmp_path / "q.yaml")[0], T)
 
 
 @pytest.mark.parametrize(
@@ -86,10 +89,10 @@ def test_bad_transform_files(tmp_path: Path, text: str, needle: str) -> None:
     path = tmp_path / "t.yaml"
     path.write_text(text)
     with pytest.raises(BadTransformFile, match=str(path)) as e:
-        load_transform_file(path)
+        read_transform_file(path)
     assert needle in str(e.value)
     with pytest.raises(BadTransformFile, match="cannot be read"):
-        load_transform_file(tmp_path / "missing.yaml")
+        read_transform_file(tmp_path / "missing.yaml")
 
 
 def test_points_to_base_matches_the_renderer(scenes) -> None:

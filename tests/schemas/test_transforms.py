@@ -7,7 +7,6 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
-from sofia_schemas.kinematics import quat_xyzw_to_rotation, rotation_to_quat_xyzw
 from sofia_schemas.transforms import make_transform, matrix_to_quat_xyzw, quat_xyzw_to_matrix
 
 
@@ -37,10 +36,6 @@ def test_half_turns_keep_w_non_negative() -> None:
     q = matrix_to_quat_xyzw(R)
     assert np.all(q[:, 3] >= 0) and np.allclose(np.linalg.norm(q, axis=1), 1.0)
     assert np.abs(quat_xyzw_to_matrix(q) - R).max() < 1e-12
-
-
-def test_the_arms_names_are_the_same_conversions() -> None:
-    assert rotation_to_quat_xyzw is matrix_to_quat_xyzw and quat_xyzw_to_rotation is quat_xyzw_to_matrix
 
 
 @pytest.mark.parametrize(

@@ -12,12 +12,6 @@ from typing import Literal
 import numpy as np
 
 from .errors import SofiaError
-from .transforms import make_transform, matrix_to_quat_xyzw, quat_xyzw_to_matrix
-
-# the arm's names for the poses and rotations of sofia_schemas.transforms (SciPy's Rotation)
-pose_matrix = make_transform
-rotation_to_quat_xyzw = matrix_to_quat_xyzw
-quat_xyzw_to_rotation = quat_xyzw_to_matrix
 
 # (a, d, alpha) per joint, metres and radians (frankaemika.github.io/docs/control_parameters.html)
 PANDA_DH = np.array([

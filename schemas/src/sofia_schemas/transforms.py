@@ -1,4 +1,5 @@
-"""Rigid transforms: validation, quaternions (x y z w), composition, inversion, interpolation.
+"""Rigid transforms: validation, quaternions (x y z w), composition, inversion, interpolation, and
+stamped poses looked up at a stamp (:class:`PoseTimeline`).
 
 Rotations go through SciPy's ``Rotation`` (the calibrator's compiled fit has its own, for its loops).
 
@@ -7,6 +8,9 @@ Conventions: ``T_a_b`` is a (4, 4) homogeneous matrix mapping points in frame ``
 """
 
 from __future__ import annotations
+
+from bisect import bisect_left, bisect_right
+from typing import Protocol
 
 import numpy as np
 from scipy.spatial.transform import Rotation, Slerp
@@ -149,3 +153,59 @@ def interpolate_poses(T_a: np.ndarray, T_b: np.ndarray, s: float | np.ndarray) -
     ).as_matrix()
     T[:, :3, 3] = (1.0 - s_n)[:, None] * T_a[:3, 3] + s_n[:, None] * T_b[:3, 3]
     return T[0] if np.ndim(s) == 0 else T
+
+
+class HasMatrix(Protocol):
+    def matrix(self) -> np.ndarray: ...
+
+
+class PoseTimeline:
+    """Poses of one frame stamped in ns, sorted by stamp (late ones sorted in), the oldest dropped
+    beyond ``maxlen``: (4, 4) matrices, or messages with ``matrix()`` converted when looked up. Not
+    thread-safe; ``name`` names the poses in errors."""
+
+    def __init__(self, maxlen: int = 100_000, name: str = "flange pose") -> None:
+        self.stamps_ns: list[int] = []
+        self.poses: list[np.ndarray | HasMatrix] = []
+        self.maxlen, self.name = maxlen, name
+
+    def __len__(self) -> int:
+        return len(self.stamps_ns)
+
+    def clear(self) -> None:
+        self.stamps_ns.clear()
+        self.poses.clear()
+
+    def add(self, stamp_ns: int, pose: np.ndarray | HasMatrix) -> None:
+        k = bisect_right(self.stamps_ns, stamp_ns)
+        self.stamps_ns.insert(k, int(stamp_ns))
+        self.poses.insert(k, pose)
+        if len(self.stamps_ns) > self.maxlen:
+            del self.stamps_ns[0], self.poses[0]
+
+    def matrix(self, i: int) -> np.ndarray:
+        """(4, 4) the ``i``-th pose (in stamp order)."""
+        pose = self.poses[i]
+        return pose if isinstance(pose, np.ndarray) else pose.matrix()
+
+    def at(self, stamp_ns: int, tolerance_ns: int, max_gap_ns: int) -> np.ndarray:
+        """(4, 4) pose at ``stamp_ns``: the one stamped then, else interpolated between the two around
+        it (:func:`interpolate_poses`) when at most ``max_gap_ns`` apart, else the nearest within
+        ``tolerance_ns``. Raises LookupError saying how far the nearest is."""
+        s = self.stamps_ns
+        if not s:
+            raise LookupError(f"no {self.name} received yet")
+        k = bisect_left(s, stamp_ns)
+        if k < len(s) and s[k] == stamp_ns:
+            return self.matrix(k)
+        if 0 < k < len(s) and s[k] - s[k - 1] <= max_gap_ns:
+            return interpolate_poses(
+                self.matrix(k - 1), self.matrix(k), (stamp_ns - s[k - 1]) / (s[k] - s[k - 1])
+            )
+        near = k - 1 if k == len(s) or (k > 0 and stamp_ns - s[k - 1] <= s[k] - stamp_ns) else k
+        gap = abs(s[near] - stamp_ns)
+        if gap > tolerance_ns:
+            raise LookupError(
+                f"nearest {self.name} is {gap / 1e6:.1f} ms from {stamp_ns} ns (tolerance {tolerance_ns / 1e6:.1f} ms)"
+            )
+        return self.matrix(near)

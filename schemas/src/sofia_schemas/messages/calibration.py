@@ -2,12 +2,15 @@
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Literal
 
 import numpy as np
-from pydantic import Field
+from pydantic import Field, ValidationError
 
+from ..files import FileContentError, load_json_or_yaml
 from ..frames import CAMERA_FRAME, FLANGE_FRAME
+from ..transforms import as_transforms, make_transform
 from .base import Finite, Message, Quat, Vec3
 
 CorrectionModel = Literal["rigid", "depth_scale", "ray_scale", "depth_scale_offset"]
@@ -185,3 +188,35 @@ class CalibrationFiles(Message):
     """Files written by the calibrator's ``save``: YAML, ROS 1 launch file, ROS 2 command."""
 
     files: list[str]
+
+
+def read_calibration_file(path: str | Path) -> tuple[np.ndarray, CameraCorrection]:
+    """(``T_flange_cam`` (4, 4), its camera correction) of a saved calibration, YAML or JSON (as
+    ``sofia calibrate save`` writes it; a :class:`CalibrationResult` qualifies): ``matrix`` 4 x 4 or
+    ``translation`` + ``quaternion_xyzw``, and ``camera_correction`` (identity when absent). Raises
+    :class:`FileContentError` naming the file and what is wrong with it."""
+    try:
+        data = load_json_or_yaml(path)
+    except OSError as e:
+        raise FileContentError(path, f"cannot be read: {e.strerror or e}") from None
+    if not isinstance(data, dict):
+        raise FileContentError(
+            path, f"not a calibration result: expected a mapping, got {type(data).__name__}"
+        )
+    try:
+        if "matrix" in data:
+            T = as_transforms(np.array(data["matrix"], dtype=np.float64), "matrix", tol=1e-4)
+        elif "translation" in data and "quaternion_xyzw" in data:
+            t = np.array(data["translation"], dtype=np.float64)
+            if t.shape != (3,):
+                raise ValueError(f"translation must be 3 numbers (metres), got shape {t.shape}")
+            T = make_transform(t, np.array(data["quaternion_xyzw"], dtype=np.float64))
+        else:
+            raise ValueError(f"needs 'matrix' or 'translation' + 'quaternion_xyzw', has {sorted(data)}")
+        return T, CameraCorrection.model_validate(data.get("camera_correction") or {})
+    except ValidationError as e:
+        first = e.errors()[0]
+        where = ".".join(str(k) for k in ("camera_correction", *first["loc"]))
+        raise FileContentError(path, f"{where}: {first['msg']}") from None
+    except (ValueError, TypeError) as e:
+        raise FileContentError(path, str(e)) from None

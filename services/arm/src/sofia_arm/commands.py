@@ -18,8 +18,8 @@ from typing import Any
 import numpy as np
 import zenoh
 from sofia_schemas.keys import Keys
-from sofia_schemas.kinematics import pose_matrix
 from sofia_schemas.messages import ArmCommand, ArmCommandName, ArmResult
+from sofia_schemas.transforms import make_transform
 
 from .controller import HALT_TIMEOUT_S, Controller, Token
 from .errors import ArmError, NotReady, TargetRefused, Unavailable
@@ -138,7 +138,7 @@ class Commands:
     @staticmethod
     def target_pose(cmd: ArmCommand) -> np.ndarray:
         assert cmd.position is not None and cmd.quaternion_xyzw is not None
-        return pose_matrix(np.array(cmd.position), np.array(cmd.quaternion_xyzw))
+        return make_transform(np.array(cmd.position), np.array(cmd.quaternion_xyzw))
 
     def stop(self, cmd: ArmCommand) -> ArmResult:
         """Stop now: cancel the running command and bring the robot to rest."""

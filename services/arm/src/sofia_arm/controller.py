@@ -19,9 +19,9 @@ from collections.abc import Callable
 
 import franky
 import numpy as np
-from sofia_schemas.kinematics import joint_limits, panda_fk, rotation_to_quat_xyzw
+from sofia_schemas.kinematics import joint_limits, panda_fk
 from sofia_schemas.messages import ArmCommandName, ArmResult, ArmStatus
-from sofia_schemas.transforms import pose_gap
+from sofia_schemas.transforms import matrix_to_quat_xyzw, pose_gap
 
 from .command_token import Token
 from .config import ArmConfig
@@ -110,7 +110,7 @@ class Controller:
         if q is not None:
             T = panda_fk(q, check_limits=False)
             fields = {"q": tuple(float(v) for v in q), "position": tuple(float(v) for v in T[:3, 3]),
-                      "quaternion_xyzw": tuple(float(v) for v in rotation_to_quat_xyzw(T[:3, :3]))}  # fmt: skip
+                      "quaternion_xyzw": tuple(float(v) for v in matrix_to_quat_xyzw(T[:3, :3]))}  # fmt: skip
         return ArmResult.model_validate({
             "ok": status == "done", "command": command, "status": status, "reason": reason,
             "duration_s": time.monotonic() - started, **fields,

@@ -16,7 +16,8 @@ from typing import Literal
 
 import numpy as np
 from sofia_schemas import Board
-from sofia_schemas.kinematics import joint_limits, panda_fk, rotation_to_quat_xyzw
+from sofia_schemas.kinematics import joint_limits, panda_fk
+from sofia_schemas.transforms import matrix_to_quat_xyzw
 
 from . import poses
 from .config import ArmConfig
@@ -41,7 +42,7 @@ FD_STEP = 1e-6
 
 def rotation_vectors(R_a_b: np.ndarray) -> np.ndarray:
     """Rotation vectors (..., 3) (axis times angle, rad) of rotation matrices (..., 3, 3)."""
-    q = rotation_to_quat_xyzw(R_a_b)
+    q = matrix_to_quat_xyzw(R_a_b)
     s = np.linalg.norm(q[..., :3], axis=-1, keepdims=True)
     angle = 2.0 * np.arctan2(s, q[..., 3:4])
     return np.where(s > 1e-12, q[..., :3] / np.maximum(s, 1e-300) * angle, 2.0 * q[..., :3])

@@ -31,10 +31,9 @@ from sofia_runtime.service import StatusEndpoint, StopFlag, query_message, reply
 from sofia_runtime.zenoh_config import ZenohOptions, zenoh_config
 from sofia_schemas.errors import PayloadError
 from sofia_schemas.keys import ENCODING_CDR_JOINT_STATE, ENCODING_CDR_TRANSFORM, ENCODING_JSON, Keys
-from sofia_schemas.kinematics import rotation_to_quat_xyzw
 from sofia_schemas.messages import ArmCommand, ArmState, FlangePose, GripperState, ServiceStatus, now_ns
 from sofia_schemas.rosmsg import encode_flange_pose, encode_joint_state
-from sofia_schemas.transforms import pose_gap
+from sofia_schemas.transforms import matrix_to_quat_xyzw, pose_gap
 
 from .commands import Commands
 from .config import ArmConfig
@@ -76,7 +75,7 @@ class StatePublisher:
     def __call__(self, s: Sample) -> None:
         T = s.T_base_flange
         pose = FlangePose(stamp_ns=s.stamp_ns, translation=tuple(float(v) for v in T[:3, 3]),  # type: ignore[arg-type]
-                          rotation_xyzw=tuple(float(v) for v in rotation_to_quat_xyzw(T[:3, :3])))  # type: ignore[arg-type]  # fmt: skip
+                          rotation_xyzw=tuple(float(v) for v in matrix_to_quat_xyzw(T[:3, :3])))  # type: ignore[arg-type]  # fmt: skip
         self.pose_pub.put(encode_flange_pose(pose))
         self.joints_pub.put(encode_joint_state(s.stamp_ns, JOINT_NAMES, s.q, s.dq, s.tau))
         self.published += 1
@@ -216,7 +215,7 @@ class ArmService:
         if s is not None:
             T = s.T_base_flange
             fields = {"q": tuple(float(v) for v in s.q), "position": tuple(float(v) for v in T[:3, 3]),
-                      "quaternion_xyzw": tuple(float(v) for v in rotation_to_quat_xyzw(T[:3, :3]))}  # fmt: skip
+                      "quaternion_xyzw": tuple(float(v) for v in matrix_to_quat_xyzw(T[:3, :3]))}  # fmt: skip
         return ArmState.model_validate({
             "stamp_ns": s.stamp_ns if s is not None else now_ns(), "connected": link.robot is not None,
             "mode": mode, "robot_mode": s.robot_mode if s is not None else "", "moving": mode == "moving",

@@ -19,10 +19,11 @@ import numpy as np
 import zenoh
 from sofia_runtime.client import QueryError, ask
 from sofia_schemas import Board
-from sofia_schemas.files import FileContentError, load_json_or_yaml
+from sofia_schemas.files import FileContentError
 from sofia_schemas.keys import Keys
 from sofia_schemas.messages import CalibrationResult, DetectedObject, Detection, PickTarget
-from sofia_schemas.transforms import apply, as_transforms, invert
+from sofia_schemas.messages.calibration import read_calibration_file
+from sofia_schemas.transforms import apply, invert
 
 from .autocal_io import Progress
 from .errors import PhaseFailed, TargetRefused
@@ -48,8 +49,8 @@ MIN_GRIP_M = 0.01  # ... while this much of the object stays above them
 
 def calibration(session: zenoh.Session, keys: Keys, transform_file: Path | None = None,
                 timeout_s: float = 2.0) -> np.ndarray | None:  # fmt: skip
-    """``T_flange_cam`` (4, 4): the calibrator's latest result, else the ``transform_file``
-    (``matrix``, 4 x 4), else None."""
+    """``T_flange_cam`` (4, 4): the calibrator's latest result, else the ``transform_file`` (a saved
+    calibration, :func:`read_calibration_file`), else None."""
     try:
         result = ask(session, keys.calibration_result, CalibrationResult, timeout=timeout_s)
         return np.array(result.matrix, dtype=np.float64)
@@ -58,10 +59,9 @@ def calibration(session: zenoh.Session, keys: Keys, transform_file: Path | None 
     if transform_file is None:
         return None
     try:
-        data = load_json_or_yaml(transform_file)
-        return as_transforms(np.array(data["matrix"], dtype=np.float64), "matrix", tol=1e-4)  # type: ignore[index]
-    except (OSError, FileContentError, KeyError, TypeError, ValueError) as e:
-        raise TargetRefused(f"pick_place survey: transform file {transform_file}: {e}") from None
+        return read_calibration_file(transform_file)[0]
+    except FileContentError as e:
+        raise TargetRefused(f"pick_place survey: transform file {e}") from None
 
 
 def board_corners(board: Board) -> np.ndarray:

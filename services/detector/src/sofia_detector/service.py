@@ -14,6 +14,7 @@ import threading
 import time
 from typing import Any
 
+import numpy as np
 import zenoh
 from sofia_replay.preload import shm_enabled
 from sofia_runtime import serve
@@ -28,10 +29,11 @@ from sofia_schemas.keys import ENCODING_JSON, Keys
 from sofia_schemas.messages import CalibrationResult, Detection, ServiceStatus, now_ns
 from sofia_schemas.messages.calibration import CameraCorrection, correction_applied
 from sofia_schemas.ros2.encoding import decode_flange, typed_cloud
+from sofia_schemas.transforms import as_transforms
 
 from .detect import detect
 from .errors import DetectorBusy, DetectorError, TransformUnavailable, UnknownFrame
-from .frames import FlangeHistory, load_correction_file, load_transform_file, parse_transform, points_to_base
+from .frames import FlangeHistory, points_to_base, read_transform_file
 from .pick import Picks
 from .selection import select, split_selection
 from .service_config import ServiceConfig
@@ -51,9 +53,9 @@ class Detector:
         self.work: WorkQueue[zenoh.Query] = WorkQueue(config.backlog, self.drops)
         self.flange = FlangeHistory()
         pinned = config.transform_file  # a file given at start: calibrator results are ignored
-        self.T_flange_cam = load_transform_file(pinned) if pinned else None
-        # the camera correction, applied to camera-frame clouds before T_flange_cam
-        self.correction = load_correction_file(pinned) if pinned else CameraCorrection()
+        # the camera correction is applied to camera-frame clouds before T_flange_cam
+        mount: tuple[np.ndarray | None, CameraCorrection] = (None, CameraCorrection())
+        self.T_flange_cam, self.correction = read_transform_file(pinned) if pinned else mount
         self.transform_name = f"file {pinned}" if pinned else None
         self.result_stamp_ns = -1  # stamp of the calibrator result in use
         self.stamps = StampCheck()  # future poses and results, live results older than this start
@@ -96,7 +98,7 @@ class Detector:
         try:
             check_payload(str(sample.key_expr), sample.payload)
             result = CalibrationResult.model_validate_json(sample.payload.to_bytes())
-            T = parse_transform({"matrix": result.matrix}, "calibration result")
+            T = as_transforms(np.array(result.matrix), "calibration result matrix", tol=1e-4)
             self.stamps.check("calibration result", result.stamp_ns, since_start=live)
         except ValueError as e:
             self._error(f"calibration result: {error_text(e)}")

@@ -1,35 +1,31 @@
-"""The board fit's steps on the coarse grid: the outline of a board top and what lies below it
-beside each outline cell, the pixel spacing, and the board outline's side counts."""
+"""The board fit's steps: the outline of a board top and what lies below it beside each outline
+cell, plane candidates, the pixel spacing."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
-from sofia_detector.board.fit import _grid_steps, _reach_steps
-from sofia_detector.board.grid import board_outline, plane_candidates, reach_hits
+from sofia_detector.board.grid import CELL, STEPS, outline_points, plane_candidates, reach_hits
 from sofia_detector.depth.clean import pixel_spacing
 
 
-def test_board_outline_of_a_rectangle_with_the_table_on_its_left() -> None:
-    """A board top on cells 10..49 x 10..69 of a grid (every second cell taken: 5..24 x 5..34),
-    2 mm cells, the table 5 cm below on the left of the board and missing depth elsewhere; an
-    object on the board is not in its outline."""
-    h, w = 60, 80
-    rows, cols = np.mgrid[0:h, 0:w].astype(np.float32)
-    m = np.stack([cols * 0.002 - 0.08, rows * 0.002 - 0.06, np.full((h, w), np.nan, np.float32)])
-    m[2, 10:50, 10:70] = 0.0
-    m[2, 10:50, :10] = -0.05
-    m[2, 30:34, 30:34] = 0.03  # an object
-    xy, A, hits = board_outline(m.astype(np.float32), 0.008, 1.0, 1.0, _reach_steps(2))
-    r, c = A[:, 0].astype(int), A[:, 1].astype(int)
-    assert r.min() == 5 and r.max() == 24 and c.min() == 5 and c.max() == 34
-    on_edge = (r == 5) | (r == 24) | (c == 5) | (c == 34)
-    assert on_edge.all()
-    assert np.allclose(xy, m[:2, 2 * r, 2 * c].T)
-    assert np.allclose(_grid_steps(A), [[0.0, 0.004], [0.004, 0.0]], atol=1e-6)  # a row moves y
-    left = hits[:, 6:8].any(axis=1)  # the table 1-2 cells to the left
-    assert np.array_equal(left, c <= 6) and hits[c == 5, 6].all()
-    assert not hits[:, :6].any()  # down, up, right: nothing lower
+def test_outline_of_a_board_top_with_the_table_on_its_left() -> None:
+    """A board top 0.40 x 0.30 m seen every 2 mm (plane frame), the table 5 cm below on its left
+    (-x), missing depth elsewhere, an object in its middle: the outline lies on the top's edges, only
+    its left side drops towards -x, the object is not in it."""
+    x, y = np.meshgrid(np.arange(-0.26, 0.26, 0.002), np.arange(-0.2, 0.2, 0.002), indexing="ij")
+    z = np.full(x.shape, np.nan)
+    on = (np.abs(x) < 0.2) & (np.abs(y) < 0.15)
+    z[on] = 0.0
+    z[(x < -0.2) & (np.abs(y) < 0.15)] = -0.05
+    z[(np.abs(x) < 0.03) & (np.abs(y) < 0.03)] = 0.03  # an object
+    m = np.stack([x, y, z]).reshape(3, -1).astype(np.float32)
+    xy, drop = outline_points(m, 0.008, np.array([0.28, 0.22]))
+    edge = np.minimum(0.2 - np.abs(xy[:, 0]), 0.15 - np.abs(xy[:, 1]))
+    assert xy.shape[0] > 50 and np.all(edge < CELL) and np.all(edge > -CELL)  # on the top's edges
+    left = xy[:, 0] < -0.2 + CELL
+    assert np.all(drop[left, 0] < 0) and np.all(drop[~left & (np.abs(xy[:, 1]) < 0.15 - CELL)] == 0)
+    assert outline_points(m[:, :0], 0.008, np.array([0.28, 0.22]))[0].shape == (0, 2)  # nothing seen
 
 
 def test_plane_candidates_within_the_limits_every_kth() -> None:
@@ -43,7 +39,7 @@ def test_plane_candidates_within_the_limits_every_kth() -> None:
 
 def test_reach_hits_off_the_grid_are_false() -> None:
     low = np.ones((3, 3), dtype=bool)
-    hits = reach_hits(low, np.array([0, 1]), np.array([0, 1]), _reach_steps(2))
+    hits = reach_hits(low, np.array([0, 1]), np.array([0, 1]), STEPS[[0, 1, 5, 6, 10, 11, 15, 16]])
     # (0, 0): down 1, 2 on the grid, up off it, right 1, 2 on it, left off it
     assert hits[0].tolist() == [True, True, False, False, True, True, False, False]
     assert hits[1].tolist() == [True, False, True, False, True, False, True, False]

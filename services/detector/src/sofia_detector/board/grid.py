@@ -1,10 +1,14 @@
-"""The board fit's steps on the coarse grid: plane candidates, the board top's outline."""
+"""The board fit's steps: plane candidates, the board top's outline on an occupancy grid in the plane."""
 
 from __future__ import annotations
 
 import numpy as np
 
 from ..geometry.grid import grid_boundary, largest_component
+
+CELL = 0.008  # occupancy cell of the outline, metres
+REACH = 5  # cells from the board top to the surface below its edge: the strip of table its side hides
+STEPS = np.concatenate([np.outer(np.arange(1, REACH + 1), s) for s in ((1, 0), (-1, 0), (0, 1), (0, -1))])
 
 
 def plane_candidates(q: np.ndarray, lim_x: float, lim_y: float, band: float, max_points: int) -> np.ndarray:
@@ -25,19 +29,26 @@ def reach_hits(low: np.ndarray, r: np.ndarray, c: np.ndarray, steps: np.ndarray)
     return hits
 
 
-def board_outline(
-    m: np.ndarray, band: float, half_x: float, half_y: float, steps: np.ndarray
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The board top's outline on every second cell of m (3, h, w) float32 (plane frame, metres):
-    the top, cells within ``band`` of the plane and ``half_x``, ``half_y`` of its centre; below it,
-    cells lower than ``-band``. Returns (k, 2) float32 points at the :func:`grid_boundary` of the
-    top's largest patch, (k, 5) float64 rows ``(row, col, 1, x, y)`` and (k, s) :func:`reach_hits`
-    of the cells below at ``steps`` (s, 2)."""
-    x, y, z = m[:, ::2, ::2]
+def outline_points(m: np.ndarray, band: float, half: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(k, 2) plane-frame points on the board top's outline and the direction (not normalised) from
+    each towards the cells below the top it reaches (0 where missing depth, the image border or
+    something in front cuts the top short). m: (3, n) float32, plane frame, metres, NaN allowed. The
+    top: the largest patch of points within ``band`` of the plane and ``half`` (2,) of its centre on
+    a grid of :data:`CELL`; below it: lower than ``-band``, up to :data:`REACH` cells out."""
     with np.errstate(invalid="ignore"):
-        top = (np.abs(z) < band) & (np.abs(x) < half_x) & (np.abs(y) < half_y)
-        low = z < -band
-    rows, cols = grid_boundary(largest_component(top))
-    xy = np.stack([x[rows, cols], y[rows, cols]], axis=1)
-    A = np.column_stack([rows, cols, np.ones(rows.size), xy]).astype(np.float64)
-    return xy, A, reach_hits(low, rows, cols, steps)
+        inside = (np.abs(m[0]) < half[0]) & (np.abs(m[1]) < half[1])
+        top, low = inside & (np.abs(m[2]) < band), inside & (m[2] < -band)
+    shape = tuple(np.ceil(2 * half / CELL).astype(int) + 1)
+
+    def occupancy(sel: np.ndarray) -> np.ndarray:
+        idx = np.floor((m[:2, sel].T + half) / CELL).astype(np.intp)
+        occ = np.zeros(shape, dtype=bool)
+        occ[idx[:, 0], idx[:, 1]] = True
+        return occ
+
+    comp = largest_component(occupancy(top))
+    if not comp.any():
+        return np.empty((0, 2)), np.empty((0, 2))
+    r, c = grid_boundary(comp)
+    xy = (np.stack([r, c], axis=1) + 0.5) * CELL - half
+    return xy, reach_hits(occupancy(low), r, c, STEPS) @ (CELL * STEPS)

@@ -10,7 +10,6 @@ from pydantic import Field, ValidationError
 
 from ..files import FileContentError, load_json_or_yaml
 from ..frames import CAMERA_FRAME, FLANGE_FRAME
-from ..transforms import as_transforms, make_transform
 from .base import Finite, Message, Quat, Vec3
 
 CorrectionModel = Literal["rigid", "depth_scale", "ray_scale", "depth_scale_offset"]
@@ -195,6 +194,8 @@ def read_calibration_file(path: str | Path) -> tuple[np.ndarray, CameraCorrectio
     ``sofia calibrate save`` writes it; a :class:`CalibrationResult` qualifies): ``matrix`` 4 x 4 or
     ``translation`` + ``quaternion_xyzw``, and ``camera_correction`` (identity when absent). Raises
     :class:`FileContentError` naming the file and what is wrong with it."""
+    from ..transforms import as_transforms, make_transform  # SciPy: not in every service's image
+
     try:
         data = load_json_or_yaml(path)
     except OSError as e:

@@ -14,6 +14,7 @@ from sofia_schemas.messages.calibration import (
     CORRECTION_APPLIED_ATTACHMENT,
     CameraCorrection,
     correction_applied,
+    read_calibration_file,
 )
 
 
@@ -102,7 +103,6 @@ def test_map_to_base_applies_the_full_model() -> None:
 
 def test_the_detector_applies_the_correction_once(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     import sofia_detector.service as svc
-    from sofia_detector.frames import read_transform_file
     from sofia_detector.service import Detector, ServiceConfig
     from sofia_runtime.zenoh_config import ZenohOptions
     from sofia_schemas import Board, pointcloud
@@ -112,9 +112,9 @@ def test_the_detector_applies_the_correction_once(tmp_path: Path, monkeypatch: p
     result = to_message(cal)
     path = tmp_path / "cal.json"
     path.write_text(result.model_dump_json())
-    assert read_transform_file(path)[1] == cal.correction
+    assert read_calibration_file(path)[1] == cal.correction
     (tmp_path / "cal.yaml").write_text(to_yaml(result))
-    assert read_transform_file(tmp_path / "cal.yaml")[1].depth_scale == pytest.approx(
+    assert read_calibration_file(tmp_path / "cal.yaml")[1].depth_scale == pytest.approx(
         cal.correction.depth_scale
     )
     det = Detector(ServiceConfig(Board.default(), "panda", ZenohOptions(), transform_file=path), {})

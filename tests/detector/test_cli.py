@@ -103,6 +103,15 @@ def test_camera_frame_mcap_with_a_transform_file(tmp_path: Path) -> None:
         assert np.linalg.norm(np.array(rec["objects"][0]["center"]) - frame["objects"][0]["center"]) < 0.005
 
 
+def test_a_bad_transform_file_gets_one_line_naming_it(cloud_files: dict[str, Path], tmp_path: Path) -> None:
+    tf = tmp_path / "T_flange_cam.yaml"
+    tf.write_text("matrix: [[1, 0], [0, 1]]\n")
+    r = run(str(cloud_files["npy"]), "--transform", str(tf))
+    assert r.returncode == 2 and r.stdout == ""
+    assert r.stderr.startswith(f"sofia detect: error: {tf}: ") and "shape (4, 4)" in r.stderr, r.stderr
+    assert r.stderr.count("\n") == 1
+
+
 def test_human_output_and_plot(cloud_files: dict[str, Path], tmp_path: Path) -> None:
     out = tmp_path / "plot.png"
     r = run(str(cloud_files["npy"]), "--plot", str(out))

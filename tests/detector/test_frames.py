@@ -2,17 +2,14 @@
 
 from __future__ import annotations
 
-import json
 import threading
 import time
-from pathlib import Path
 
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
-from sofia_detector import BadTransformFile, TransformUnavailable
-from sofia_detector.frames import FlangeHistory, points_to_base, read_transform_file
-from sofia_replay.synth import DEFAULT_T_FLANGE_CAM
+from sofia_detector import TransformUnavailable
+from sofia_detector.frames import FlangeHistory, points_to_base
 from sofia_schemas.messages import FlangePose
 from sofia_schemas.transforms import make_transform, matrix_to_quat_xyzw
 
@@ -63,36 +60,6 @@ def test_history_nearest_and_tolerance() -> None:
         h.at(2_040_000_000)
     with pytest.raises(TransformUnavailable, match="no flange pose received yet"):
         FlangeHistory().at(5)
-
-
-def test_transform_files(tmp_path: Path) -> None:
-    T = DEFAULT_T_FLANGE_CAM
-    (tmp_path / "m.json").write_text(json.dumps({"matrix": T.tolist()}))
-    q = matrix_to_quat_xyzw(T[:3, :3])
-    (tmp_path / "q.yaml").write_text(f"translation: {T[:3, 3].tolist()}\nquaternion_xyzw: {q.tolist()}\n")
-    assert np.allclose(read_transform_file(tmp_path / "m.json")[0], T)
-    assert np.allclose(read_transform_file(tmp_path / "q.yaml")[0], T)
-
-
-@pytest.mark.parametrize(
-    ("text", "needle"),
-    [
-        ("matrix: [[1, 0], [0, 1]]", "shape (4, 4)"),
-        ("translation: [0, 0, 0]\nquaternion_xyzw: [0, 0, 0, 2]", "norm 2.000000"),
-        ("foo: 1", "needs 'matrix' or 'translation' + 'quaternion_xyzw'"),
-        ("- 1\n- 2", "expected a mapping"),
-        ("matrix: [[2,0,0,0],[0,1,0,0],[0,0,1,0],[0,0,0,1]]", "not a rotation"),
-        ("{: bad", "is not valid YAML"),
-    ],
-)
-def test_bad_transform_files(tmp_path: Path, text: str, needle: str) -> None:
-    path = tmp_path / "t.yaml"
-    path.write_text(text)
-    with pytest.raises(BadTransformFile, match=str(path)) as e:
-        read_transform_file(path)
-    assert needle in str(e.value)
-    with pytest.raises(BadTransformFile, match="cannot be read"):
-        read_transform_file(tmp_path / "missing.yaml")
 
 
 def test_points_to_base_matches_the_renderer(scenes) -> None:

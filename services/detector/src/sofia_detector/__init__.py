@@ -3,7 +3,6 @@
 from .detect import as_cloud, detect
 from .errors import (
     BadCloud,
-    BadTransformFile,
     DetectorError,
     TransformUnavailable,
     UnreadableFile,
@@ -12,6 +11,6 @@ from .errors import (
 from .params import DetectorParams
 
 __all__ = [
-    "BadCloud", "BadTransformFile", "DetectorError", "DetectorParams", "TransformUnavailable",
+    "BadCloud", "DetectorError", "DetectorParams", "TransformUnavailable",
     "UnreadableFile", "WrongCloud", "as_cloud", "detect",
 ]  # fmt: skip

@@ -14,10 +14,10 @@ from sofia_schemas import Board
 from sofia_schemas.board import BOARD_HELP
 from sofia_schemas.keys import add_robot_arg, default_robot
 from sofia_schemas.messages import Detection
+from sofia_schemas.messages.calibration import read_calibration_file
 
 from .detect import detect
 from .errors import DetectorError, WrongCloud
-from .frames import read_transform_file
 from .pick import PickParams
 from .readers import FileCloud, iter_file_clouds
 from .sanity import diagnose
@@ -108,7 +108,7 @@ def _numbered(out: Path, n: int) -> Path:
 
 def _detect_all(args: argparse.Namespace) -> int:
     board = Board.load(args.board)
-    T_flange_cam = read_transform_file(args.transform)[0] if args.transform else None
+    T_flange_cam = read_calibration_file(args.transform)[0] if args.transform else None
     transform_name = f"file {args.transform}" if args.transform else None
     failures, n_clouds = 0, 0
     single = len(args.files) == 1 and args.files[0].suffix.lower() != ".mcap"

@@ -38,12 +38,6 @@ class TransformUnavailable(DetectorError):  # noqa: N818 - public API name
     template = "cannot map the camera-frame cloud into the base frame: {}"
 
 
-class BadTransformFile(DetectorError):  # noqa: N818 - public API name
-    """(path, what)."""
-
-    template = "transform file {}: {}"
-
-
 class WrongCloud(DetectorError):  # noqa: N818 - public API name
     """A cloud without a board that looks like a mistake (millimetres, camera frame): (source, what)."""
 

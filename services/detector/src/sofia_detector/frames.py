@@ -5,28 +5,17 @@ from __future__ import annotations
 
 import logging
 import threading
-from pathlib import Path
 
 import numpy as np
-from sofia_schemas.files import FileContentError
 from sofia_schemas.messages import FlangePose
-from sofia_schemas.messages.calibration import CameraCorrection, read_calibration_file
+from sofia_schemas.messages.calibration import CameraCorrection
 from sofia_schemas.transforms import PoseTimeline
 
-from .errors import BadTransformFile, TransformUnavailable
+from .errors import TransformUnavailable
 
 log = logging.getLogger(__name__)
 JUMP_BACK_NS = 1_000_000_000  # a pose this much older than the newest starts a new time line
 DEFAULT_TOLERANCE_NS = 50_000_000  # a flange pose further than this from the cloud's stamp is not used
-
-
-def read_transform_file(path: str | Path) -> tuple[np.ndarray, CameraCorrection]:
-    """(``T_flange_cam`` (4, 4), camera correction) of a saved calibration (YAML or JSON,
-    :func:`~sofia_schemas.messages.calibration.read_calibration_file`); BadTransformFile otherwise."""
-    try:
-        return read_calibration_file(path)
-    except FileContentError as e:
-        raise BadTransformFile(path, e.what) from None
 
 
 def points_to_base(

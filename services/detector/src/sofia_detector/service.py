@@ -27,13 +27,13 @@ from sofia_runtime.zenoh_config import zenoh_config
 from sofia_schemas import pointcloud
 from sofia_schemas.keys import ENCODING_JSON, Keys
 from sofia_schemas.messages import CalibrationResult, Detection, ServiceStatus, now_ns
-from sofia_schemas.messages.calibration import CameraCorrection, correction_applied
+from sofia_schemas.messages.calibration import CameraCorrection, correction_applied, read_calibration_file
 from sofia_schemas.ros2.encoding import decode_flange, typed_cloud
 from sofia_schemas.transforms import as_transforms
 
 from .detect import detect
 from .errors import DetectorBusy, DetectorError, TransformUnavailable, UnknownFrame
-from .frames import FlangeHistory, points_to_base, read_transform_file
+from .frames import FlangeHistory, points_to_base
 from .pick import Picks
 from .selection import select, split_selection
 from .service_config import ServiceConfig
@@ -55,7 +55,7 @@ class Detector:
         pinned = config.transform_file  # a file given at start: calibrator results are ignored
         # the camera correction is applied to camera-frame clouds before T_flange_cam
         mount: tuple[np.ndarray | None, CameraCorrection] = (None, CameraCorrection())
-        self.T_flange_cam, self.correction = read_transform_file(pinned) if pinned else mount
+        self.T_flange_cam, self.correction = read_calibration_file(pinned) if pinned else mount
         self.transform_name = f"file {pinned}" if pinned else None
         self.result_stamp_ns = -1  # stamp of the calibrator result in use
         self.stamps = StampCheck()  # future poses and results, live results older than this start

@@ -25,15 +25,13 @@ BAD = "bad clouds"
 class CloudJob:
     """Received cloud bytes (a view of Zenoh shared memory, or a copy); ``camera``: camera frame;
     ``corrected``: the producer already applied the camera correction (Zenoh attachment).
-    ``arrived_s`` (monotonic) starts the wait for the flange pose of ``pose_stamp_ns``."""
+    ``arrived_s`` (monotonic) starts the wait for the flange pose of its stamp (:meth:`pose_stamp`)."""
 
     payload: bytes | memoryview
     camera: bool
     key: str
     corrected: bool = False
     arrived_s: float = field(default_factory=time.monotonic)
-    pose_stamp_ns: int | None = None
-    inspected: bool = False
     decoded: pointcloud.PointCloud2 | None = None
 
     def cloud(self) -> pointcloud.PointCloud2:
@@ -43,15 +41,13 @@ class CloudJob:
         return self.decoded
 
     def pose_stamp(self, in_camera_frame: Callable[[str], bool]) -> int | None:
-        """The stamp this cloud needs a flange pose for; None for board-frame and unreadable clouds."""
-        if not self.inspected:
-            self.inspected = True
-            try:
-                cloud = self.cloud()
-                self.pose_stamp_ns = cloud.stamp_ns if in_camera_frame(cloud.frame_id) else None
-            except ValueError:
-                self.pose_stamp_ns = None
-        return self.pose_stamp_ns
+        """The stamp this cloud needs a flange pose for; None for board-frame and unreadable clouds
+        (their error is raised again when the worker takes them)."""
+        try:
+            cloud = self.cloud()
+            return cloud.stamp_ns if in_camera_frame(cloud.frame_id) else None
+        except ValueError:
+            return None
 
 
 class WorkQueue(Generic[Q]):

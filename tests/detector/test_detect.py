@@ -7,6 +7,7 @@ import pytest
 from sofia_detector import DetectorParams, detect
 from sofia_schemas import Board
 from sofia_schemas.messages import Detection
+from sofia_schemas.transforms import apply
 
 CENTER_TOL = 0.005  # the benchmark's p95 target, metres
 
@@ -98,6 +99,34 @@ def test_clutter_off_the_board_is_ignored(scenes, board: Board) -> None:
     far = np.array([0.5, 0.55, 0.05], np.float32)  # a tall thing 25 cm beyond the board edge
     pts[:20, :20] = far + np.random.default_rng(1).normal(0, 0.01, (20, 20, 3))
     assert detect(pts, board).status == "no_object"
+
+
+def _box_beside_the_board(board: Board, table_z: float) -> np.ndarray:
+    """(H, W, 3) base-frame cloud seen from above, 2 mm apart: ``board`` with a 1 cm rim on a table
+    at ``table_z`` (metres, board frame), missing depth in a 5 cm band beyond its -x edge, the cloud
+    ending 3 cm inside its +x edge, and a 4 x 4 cm box standing on the table beyond the band, its
+    top 3 cm above the board."""
+    ex, ey = board.extent
+    x, y = np.meshgrid(np.arange(-ex / 2 - 0.16, ex / 2 - 0.03, 0.002),
+                       np.arange(-ey / 2 - 0.08, ey / 2 + 0.08, 0.002), indexing="ij")  # fmt: skip
+    z = np.where((np.abs(x) < ex / 2 + 0.01) & (np.abs(y) < ey / 2 + 0.01), 0.0, table_z)
+    box = (np.abs(x - (-ex / 2 - 0.085)) < 0.02) & (np.abs(y) < 0.02)
+    z[box] = 0.03
+    p = np.stack([x, y, z + np.random.default_rng(4).normal(0, 0.0005, z.shape)], axis=-1)
+    p[(x < -ex / 2 - 0.01) & (x > -ex / 2 - 0.06) & ~box] = np.nan
+    return apply(board.T_base_board, p).astype(np.float32)  # type: ignore[no-any-return]
+
+
+def test_an_object_on_the_table_beside_the_board_is_dropped(board: Board) -> None:
+    # neither edge of the board along x is seen (missing depth, the cloud's end): it is placed where
+    # configured, here 9 cm short of where it is, and the box lies on its configured field grid
+    configured = board.model_copy(update={"center": (board.center[0] - 0.09, board.center[1])})
+    box_base = board.T_base_board[:3, 3] + [-board.extent[0] / 2 - 0.085, 0.0, 0.0]
+    assert configured.field_at(*(box_base - configured.T_base_board[:3, 3])[:2]) is not None
+    level = detect(_box_beside_the_board(board, table_z=0.0), configured)  # a table level with the board
+    assert [o.field for o in level.objects] == [(0, 1)]
+    det = detect(_box_beside_the_board(board, table_z=-0.02), configured)  # the table 2 cm below it
+    assert det.status == "no_object", det.objects  # most of the box's surroundings lie below the board
 
 
 def test_holes_do_not_split_objects(scenes, board: Board) -> None:

@@ -33,6 +33,8 @@ from sofia_detector.segment import organized, unorganized
 from sofia_replay.synth.realism import CATEGORIES
 from sofia_schemas import Board
 
+_in_view = measure.in_view  # the step's own function, called by the stand-ins below
+
 
 def _no_depth_band(obj: Any, top: float, tol: float, depth: Any = None) -> Any:
     return _in_view(obj, top, tol, None)
@@ -40,9 +42,6 @@ def _no_depth_band(obj: Any, top: float, tol: float, depth: Any = None) -> Any:
 
 def _never_beside(obj: Any, top: float, tol: float, depth: Any = None) -> Any:
     return dataclasses.replace(_in_view(obj, top, tol, depth), off_board=0.0)
-
-
-_in_view = measure.in_view
 
 
 @dataclasses.dataclass(frozen=True)

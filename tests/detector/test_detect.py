@@ -121,8 +121,8 @@ def test_an_object_on_the_table_beside_the_board_is_dropped(board: Board) -> Non
     # neither edge of the board along x is seen (missing depth, the cloud's end): it is placed where
     # configured, here 9 cm short of where it is, and the box lies on its configured field grid
     configured = board.model_copy(update={"center": (board.center[0] - 0.09, board.center[1])})
-    box_base = board.T_base_board[:3, 3] + [-board.extent[0] / 2 - 0.085, 0.0, 0.0]
-    assert configured.field_at(*(box_base - configured.T_base_board[:3, 3])[:2]) is not None
+    box_base = apply(board.T_base_board, np.array([-board.extent[0] / 2 - 0.085, 0.0, 0.0]))
+    assert configured.field_at(*configured.base_to_board(box_base)[:2]) is not None
     level = detect(_box_beside_the_board(board, table_z=0.0), configured)  # a table level with the board
     assert [o.field for o in level.objects] == [(0, 1)]
     det = detect(_box_beside_the_board(board, table_z=-0.02), configured)  # the table 2 cm below it
